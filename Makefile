@@ -1,0 +1,52 @@
+SHELL := /bin/bash
+# One entry point.  `make test` and `make book` set up a pinned virtual environment
+# (.venv, from requirements-lock.txt) on first use, so a fresh machine needs only Python 3.11.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+export MPLBACKEND := Agg
+export PYDEVD_DISABLE_FILE_VALIDATION := 1
+
+.PHONY: venv test test-unit test-notebooks book book-clean execute clean
+
+venv: $(STAMP)
+
+$(STAMP): requirements-lock.txt pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -r requirements-lock.txt
+	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
+	touch $(STAMP)
+
+## make test: library unit tests + nbval (strict) over every notebook in book/
+test: venv
+	$(BIN)/python -m pytest -p no:cacheprovider tests book --nbval --nbval-current-env \
+	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
+
+test-unit: venv
+	$(BIN)/python -m pytest -p no:cacheprovider tests -q
+
+test-notebooks: venv
+	$(BIN)/python -m pytest -p no:cacheprovider book --nbval --nbval-current-env \
+	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
+
+## make book: the rendered HTML book in _build/html (warnings are errors; cached execution)
+book: venv
+	set -eo pipefail; $(BIN)/jupyter-book build . --builder html -W -n --keep-going
+
+## make book-clean: force a full re-execution and rebuild
+book-clean: venv
+	rm -rf _build
+	$(MAKE) book
+
+## make execute: re-execute every notebook in place (after a change of results)
+execute: venv
+	for nb in book/*.ipynb; do \
+	echo "executing $$nb"; \
+	$(BIN)/jupyter nbconvert --to notebook --execute --inplace \
+	    --ExecutePreprocessor.timeout=600 --ExecutePreprocessor.kernel_name=python3 "$$nb" || exit 1; \
+	done
+
+clean:
+	rm -rf _build .pytest_cache

@@ -1,0 +1,382 @@
+"""Parameters of the five-bar linkage: loading, validation and overrides.
+
+The paper's numbers (section 5) and the project's assumptions for the numbers it lacks live in
+``data/wang2011.toml``.  :func:`load_params` reads that file (and optionally further files
+layered over it), checks every entry and returns a frozen :class:`Params`.  Values are SI
+inside the library; the only exception is ``crank_speed_rpm``, kept in r/min because that is
+how people state it (``Params.crank_speed`` gives rad/s).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+__all__ = ["Motor", "Params", "ParameterError", "load_params", "DEFAULT_PARAMS_PATH"]
+
+#: The parameter file shipped with the project.
+DEFAULT_PARAMS_PATH = Path(__file__).resolve().parents[2] / "data" / "wang2011.toml"
+
+
+class ParameterError(ValueError):
+    """A parameter file or override holds a missing, unknown or invalid entry."""
+
+
+# --- the schema: dotted TOML key -> (rule, unit) ---------------------------------------------
+# rules: "pos" > 0, "nonneg" >= 0, "real" any finite number, "posint" integer > 0,
+# "frac" 0 <= x < 1, "slip" 0 < x < 1, "flag" 0 or 1, ("choice", (...)) one of the strings.
+_MOTOR_KEYS = {
+    "rated_power": ("pos", "W"), "rated_voltage": ("pos", "V"), "rated_speed": ("pos", "rad/s"),
+    "e0": ("nonneg", "m"), "eps0": ("nonneg", "m"), "mu0": ("pos", "H/m"),
+    "delta0": ("pos", "m"), "k_mu": ("pos", "-"), "W": ("posint", "-"), "K_w": ("pos", "-"),
+    "I": ("pos", "A"), "p": ("posint", "-"), "m1": ("pos", "-"), "m2": ("pos", "-"),
+    "x_m": ("pos", "ohm"), "r_prime": ("pos", "ohm"), "x_prime": ("nonneg", "ohm"),
+    "s": ("slip", "-"), "U_k": ("nonneg", "V"), "m0": ("pos", "kg"), "J0": ("pos", "kg m^2"),
+    "l1": ("pos", "m"), "l2": ("pos", "m"), "l3": ("pos", "m"), "L01": ("pos", "m"),
+    "R01": ("pos", "m"),
+}
+_OPTIONAL_MOTOR_KEYS = {"stall_torque": ("pos", "N m"), "rated_current": ("pos", "A")}
+
+_SCHEMA: dict[str, tuple[Any, str]] = {
+    **{f"geometry.{k}": ("pos", "m") for k in ("L1", "L2", "L3", "L4", "L5", "width", "thickness")},
+    "material.rho": ("pos", "kg/m^3"),
+    "material.E": ("pos", "Pa"),
+    "masses.m01": ("nonneg", "kg"),
+    "masses.m02": ("nonneg", "kg"),
+    "simulation.theta1_0": ("real", "rad"),
+    "simulation.theta4_0": ("real", "rad"),
+    "simulation.newmark_sigma": ("real", "-"),
+    "simulation.newmark_theta": ("real", "-"),
+    "simulation.steps_per_period": ("posint", "-"),
+    **{f"motor{i}.{k}": v for i in (1, 2) for k, v in _MOTOR_KEYS.items()},
+    "assumptions.crank_speed_rpm": ("pos", "r/min"),
+    "assumptions.speed_ratio": ("pos", "-"),
+    "assumptions.bending_depth": ("pos", "m"),
+    "assumptions.rotary_inertia": ("flag", "-"),
+    "assumptions.damping_ratio": ("frac", "-"),
+    "assumptions.gravity": ("nonneg", "m/s^2"),
+    "assumptions.fourier_terms": ("posint", "-"),
+    "assumptions.supply_frequency": ("pos", "Hz"),
+    "assumptions.phase_phi10": ("real", "rad"),
+    "assumptions.phase_phi20": ("real", "rad"),
+    "assumptions.static_eccentricity_angle": ("real", "rad"),
+    "assumptions.shaft_diameter_1": ("pos", "m"),
+    "assumptions.shaft_diameter_2": ("pos", "m"),
+    "assumptions.shaft_E": ("pos", "Pa"),
+    "assumptions.shaft_G": ("pos", "Pa"),
+    "assumptions.shaft_rho": ("pos", "kg/m^3"),
+    "assumptions.gap_flux_density": ("pos", "T"),
+    "assumptions.em_variant": (("choice", ("calibrated", "literal")), "-"),
+    "assumptions.yield_stress": ("pos", "Pa"),
+}
+_OPTIONAL = {f"motor{i}.{k}": v for i in (1, 2) for k, v in _OPTIONAL_MOTOR_KEYS.items()}
+_ALL_KEYS = {**_SCHEMA, **_OPTIONAL}
+
+_RULE_TEXT = {
+    "pos": "a positive number",
+    "nonneg": "a number >= 0",
+    "real": "a finite number",
+    "posint": "a positive integer",
+    "frac": "a number in [0, 1)",
+    "slip": "a number in (0, 1)",
+    "flag": "0 or 1",
+}
+
+
+def _describe(rule: Any, unit: str) -> str:
+    text = f"one of {list(rule[1])}" if isinstance(rule, tuple) else _RULE_TEXT[rule]
+    return text if unit == "-" else f"{text} ({unit})"
+
+
+def _check(key: str, value: Any) -> Any:
+    """Validate one entry; return it as float, int or str."""
+    rule, unit = _ALL_KEYS[key]
+    bad = ParameterError(f"{key} = {value!r} is not allowed: it must be {_describe(rule, unit)}")
+    if isinstance(rule, tuple):
+        if not isinstance(value, str) or value not in rule[1]:
+            raise bad
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise bad
+    if not math.isfinite(value):
+        raise bad
+    if rule == "posint":
+        if value != int(value) or value <= 0:
+            raise bad
+        return int(value)
+    if rule == "flag":
+        if value not in (0, 1):
+            raise bad
+        return int(value)
+    ok = {
+        "pos": value > 0,
+        "nonneg": value >= 0,
+        "real": True,
+        "frac": 0 <= value < 1,
+        "slip": 0 < value < 1,
+    }[rule]
+    if not ok:
+        raise bad
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Motor:
+    """One controllable motor (section 5 and appendix (A.1)-(A.4), (A.9)-(A.10)).
+
+    All values SI.  ``l1, l2, l3`` are the shaft segments between the element's four nodes
+    (rotor at ``x = l1``); the shaft diameter and material are assumptions.
+    """
+
+    rated_power: float
+    rated_voltage: float
+    rated_speed: float
+    e0: float
+    eps0: float
+    mu0: float
+    delta0: float
+    k_mu: float
+    W: int
+    K_w: float
+    I: float
+    p: int
+    m1: float
+    m2: float
+    x_m: float
+    r_prime: float
+    x_prime: float
+    s: float
+    U_k: float
+    m0: float
+    J0: float
+    l1: float
+    l2: float
+    l3: float
+    L01: float
+    R01: float
+    shaft_diameter: float
+    shaft_E: float
+    shaft_G: float
+    shaft_rho: float
+    stall_torque: float | None = None
+    rated_current: float | None = None
+
+    @property
+    def l(self) -> float:  # noqa: E743 - the paper's name
+        """Shaft length l = l1 + l2 + l3 (m)."""
+        return self.l1 + self.l2 + self.l3
+
+
+@dataclass(frozen=True)
+class Params:
+    """Frozen, validated parameter set of the five-bar linkage (SI units).
+
+    Build it with :func:`load_params`; derive variants with :meth:`replace`.  ``meta`` maps
+    each dotted key (``"geometry.L1"``) to its provenance from the TOML file (printed value
+    and source, or the assumption's reason and alternative).
+    """
+
+    L1: float
+    L2: float
+    L3: float
+    L4: float
+    L5: float
+    width: float
+    thickness: float
+    rho: float
+    E: float
+    m01: float
+    m02: float
+    theta1_0: float
+    theta4_0: float
+    newmark_sigma: float
+    newmark_theta: float
+    steps_per_period: int
+    motor1: Motor
+    motor2: Motor
+    crank_speed_rpm: float
+    speed_ratio: float
+    bending_depth: float
+    rotary_inertia: int
+    damping_ratio: float
+    gravity: float
+    fourier_terms: int
+    supply_frequency: float
+    phase_phi10: float
+    phase_phi20: float
+    static_eccentricity_angle: float
+    gap_flux_density: float
+    em_variant: str
+    yield_stress: float
+    values: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    meta: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, compare=False, repr=False)
+
+    # --- derived quantities ------------------------------------------------------------------
+    @property
+    def A(self) -> float:
+        """Cross-section area of every link (m^2)."""
+        return self.width * self.thickness
+
+    @property
+    def I(self) -> float:  # noqa: E743 - the paper's name
+        """Second moment of area for in-plane bending (m^4): b d^3 / 12, d = bending_depth."""
+        d = self.bending_depth
+        return self.A / d * d**3 / 12.0
+
+    @property
+    def crank_speed(self) -> float:
+        """Speed of crank AB (rad/s)."""
+        return self.crank_speed_rpm * 2.0 * math.pi / 60.0
+
+    @property
+    def period(self) -> float:
+        """Period of the motion (s): one turn of crank AB (for speed_ratio 1)."""
+        return 2.0 * math.pi / self.crank_speed
+
+    @property
+    def lengths(self) -> tuple[float, float, float, float, float]:
+        """(L1, L2, L3, L4, L5) in m."""
+        return (self.L1, self.L2, self.L3, self.L4, self.L5)
+
+    # --- variants ----------------------------------------------------------------------------
+    def replace(self, **changes: Any) -> "Params":
+        """Return a copy with some entries changed, validated like the file.
+
+        Keys are dotted TOML keys (``**{"motor1.m0": 2.0}``) or bare names that are unique
+        (``crank_speed_rpm=120``, ``L1=0.25``).
+
+        >>> p = load_params().replace(crank_speed_rpm=120)
+        """
+        values = dict(self.values)
+        for key, value in changes.items():
+            values[_resolve_key(key)] = value
+        return _build(values, dict(self.meta))
+
+
+def _resolve_key(key: str) -> str:
+    if key in _ALL_KEYS:
+        return key
+    matches = [k for k in _ALL_KEYS if k.split(".", 1)[1] == key]
+    if len(matches) == 1:
+        return matches[0]
+    if len(matches) > 1:
+        raise ParameterError(f"parameter name {key!r} is ambiguous: use one of {matches}")
+    raise ParameterError(
+        f"unknown parameter {key!r}: allowed are the dotted keys of data/wang2011.toml "
+        f"(for example 'geometry.L1', 'motor1.m0', 'assumptions.crank_speed_rpm')"
+    )
+
+
+def _flatten(doc: Mapping[str, Any], origin: str) -> tuple[dict[str, Any], dict[str, dict]]:
+    """Dotted key -> value, and dotted key -> metadata, from one parsed TOML document."""
+    values: dict[str, Any] = {}
+    meta: dict[str, dict] = {}
+    for section, entries in doc.items():
+        if not isinstance(entries, Mapping):
+            raise ParameterError(f"{origin}: top-level entry {section!r} must be a [section]")
+        for name, entry in entries.items():
+            key = _resolve_key(f"{section}.{name}")
+            if isinstance(entry, Mapping):
+                if "value" not in entry:
+                    raise ParameterError(f"{origin}: {key} has no 'value'")
+                values[key] = entry["value"]
+                meta[key] = {k: v for k, v in entry.items() if k != "value"} | {"file": origin}
+            else:
+                values[key] = entry
+                meta[key] = {"file": origin, "source": f"override in {origin}"}
+    return values, meta
+
+
+def _build(values: Mapping[str, Any], meta: Mapping[str, Mapping[str, Any]]) -> Params:
+    checked: dict[str, Any] = {}
+    for key in _SCHEMA:
+        if key not in values:
+            rule, unit = _SCHEMA[key]
+            raise ParameterError(f"{key} is missing: it must be {_describe(rule, unit)}")
+        checked[key] = _check(key, values[key])
+    for key in _OPTIONAL:
+        if key in values:
+            checked[key] = _check(key, values[key])
+
+    a = {k.split(".", 1)[1]: v for k, v in checked.items() if k.startswith("assumptions.")}
+
+    def motor(i: int) -> Motor:
+        kw = {k.split(".", 1)[1]: v for k, v in checked.items() if k.startswith(f"motor{i}.")}
+        return Motor(
+            **kw,
+            shaft_diameter=a[f"shaft_diameter_{i}"],
+            shaft_E=a["shaft_E"],
+            shaft_G=a["shaft_G"],
+            shaft_rho=a["shaft_rho"],
+        )
+
+    top = {
+        k.split(".", 1)[1]: v
+        for k, v in checked.items()
+        if k.split(".", 1)[0] in ("geometry", "material", "masses", "simulation")
+    }
+    own = {f.name for f in fields(Params)}
+    top.update({k: v for k, v in a.items() if k in own})
+    return Params(**top, motor1=motor(1), motor2=motor(2), values=checked, meta=dict(meta))
+
+
+def load_params(
+    path: str | Path | Iterable[str | Path] | None = None,
+    overrides: Mapping[str, Any] | None = None,
+) -> Params:
+    """Load, validate and freeze the parameters.
+
+    ``p = load_params()``; ``p = load_params([base, mine])``; ``p = load_params(overrides=...)``
+
+    Parameters
+    ----------
+    path
+        A TOML file, or a sequence of files layered in order (later files override earlier
+        ones, entry by entry); the first must be complete.  ``None`` loads
+        ``data/wang2011.toml``.  To layer your own file over the defaults:
+        ``load_params([fivebar.DEFAULT_PARAMS_PATH, "mine.toml"])``.
+    overrides
+        Dotted or unique bare keys and values applied last, e.g. ``{"crank_speed_rpm": 120}``.
+
+    Returns
+    -------
+    Params
+        The frozen parameter set.
+
+    Raises
+    ------
+    ParameterError
+        For a missing, unknown, non-numeric, negative or otherwise invalid entry; the message
+        names the key, the value and what is allowed.
+    """
+    if path is None:
+        paths = [DEFAULT_PARAMS_PATH]
+    elif isinstance(path, (str, Path)):
+        paths = [Path(path)]
+    else:
+        paths = [Path(p) for p in path]
+    values: dict[str, Any] = {}
+    meta: dict[str, dict] = {}
+    layers = []
+    for p in paths:
+        try:
+            with open(p, "rb") as fh:
+                doc = tomllib.load(fh)
+        except FileNotFoundError:
+            raise ParameterError(f"parameter file {str(p)!r} does not exist") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ParameterError(f"parameter file {str(p)!r} is not valid TOML: {exc}") from None
+        layers.append(_flatten(doc, str(p)))
+    for v, m in layers:
+        values.update(v)
+        for k, mk in m.items():
+            meta[k] = {**meta.get(k, {}), **mk}
+    for key, value in (overrides or {}).items():
+        k = _resolve_key(key)
+        values[k] = value
+        meta[k] = {**meta.get(k, {}), "source": "override in code"}
+    return _build(values, meta)

@@ -1,0 +1,96 @@
+"""Parameter loading: the paper's numbers, overrides, and every validation error path."""
+
+import math
+from pathlib import Path
+
+import pytest
+
+import fivebar
+from fivebar import ParameterError, load_params
+
+
+def test_paper_values_in_si():
+    p = load_params()
+    # section 5, converted by hand
+    assert p.lengths == (0.2, 0.4, 0.4, 0.15, 0.4)
+    assert p.A == pytest.approx(30e-3 * 2e-3)
+    assert p.I == pytest.approx(2e-3 * 30e-3**3 / 12)  # 30 mm side in the plane (assumption)
+    assert p.motor1.l == pytest.approx(0.363)  # l1 + l2 + l3 as printed in total
+    assert p.motor2.l == pytest.approx(0.308)  # 100 + 33 + 175 mm (the paper prints l = 208)
+    assert p.motor1.rated_speed == pytest.approx(1500 * 2 * math.pi / 60)
+    assert p.crank_speed == pytest.approx(p.crank_speed_rpm * math.pi / 30)
+    assert p.period == pytest.approx(60 / p.crank_speed_rpm)
+    assert p.meta["geometry.L1"]["printed"] == "200 mm"
+    assert "reason" in p.meta["assumptions.damping_ratio"]
+
+
+def test_every_assumption_is_documented():
+    p = load_params()
+    for key, meta in p.meta.items():
+        if key.startswith("assumptions."):
+            assert meta.get("reason") and meta.get("alternative") and meta.get("unit"), key
+        else:
+            assert meta.get("printed") and meta.get("source"), key
+
+
+def test_params_are_frozen():
+    p = load_params()
+    with pytest.raises(AttributeError):
+        p.L1 = 1.0
+
+
+def test_replace_and_layered_file(tmp_path: Path):
+    p = load_params()
+    q = p.replace(crank_speed_rpm=120, **{"motor1.m0": 3.0})
+    assert q.crank_speed_rpm == 120 and q.motor1.m0 == 3.0 and p.crank_speed_rpm != 120
+    overlay = tmp_path / "mine.toml"
+    overlay.write_text("[geometry]\nL1 = 0.25\n[assumptions]\nbending_depth = 0.002\n")
+    r = load_params([fivebar.DEFAULT_PARAMS_PATH, overlay])
+    assert r.L1 == 0.25 and r.I == pytest.approx(30e-3 * 2e-3**3 / 12)
+    assert r.L2 == p.L2
+    assert "mine.toml" in r.meta["geometry.L1"]["file"]
+    s = load_params(overrides={"L5": 0.5})
+    assert s.L5 == 0.5
+
+
+@pytest.mark.parametrize(
+    "key, value, words",
+    [
+        ("geometry.L1", -0.2, ["geometry.L1", "-0.2", "positive"]),
+        ("geometry.L2", 0.0, ["geometry.L2", "0.0", "positive"]),
+        ("material.E", "70 GPa", ["material.E", "'70 GPa'", "positive number (Pa)"]),
+        ("motor1.p", 1.5, ["motor1.p", "1.5", "positive integer"]),
+        ("motor2.s", 1.2, ["motor2.s", "1.2", "(0, 1)"]),
+        ("assumptions.damping_ratio", -0.01, ["damping_ratio", "-0.01", "[0, 1)"]),
+        ("assumptions.em_variant", "fancy", ["em_variant", "'fancy'", "calibrated", "literal"]),
+        ("geometry.L3", float("nan"), ["geometry.L3", "nan"]),
+        ("geometry.L4", True, ["geometry.L4", "True"]),
+    ],
+)
+def test_invalid_values_name_key_value_and_rule(key, value, words):
+    with pytest.raises(ParameterError) as info:
+        load_params().replace(**{key: value})
+    for w in words:
+        assert w in str(info.value)
+
+
+def test_missing_entry_in_file(tmp_path: Path):
+    text = fivebar.DEFAULT_PARAMS_PATH.read_text()
+    lines = [ln for ln in text.splitlines() if not ln.startswith("m02 =")]
+    bad = tmp_path / "bad.toml"
+    bad.write_text("\n".join(lines))
+    with pytest.raises(ParameterError, match=r"masses\.m02 is missing.*>= 0 \(kg\)"):
+        load_params(bad)
+
+
+def test_unknown_and_ambiguous_keys(tmp_path: Path):
+    with pytest.raises(ParameterError, match="unknown parameter 'geometry.L6'"):
+        load_params(overrides={"geometry.L6": 1.0})
+    with pytest.raises(ParameterError, match="'m0' is ambiguous"):
+        load_params().replace(m0=1.0)
+    with pytest.raises(ParameterError, match="does not exist"):
+        load_params(tmp_path / "nope.toml")
+    broken = tmp_path / "broken.toml"
+    broken.write_text("[geometry\nL1 = ")
+    with pytest.raises(ParameterError, match="not valid TOML"):
+        load_params(broken)
