@@ -71,6 +71,7 @@ _SCHEMA: dict[str, tuple[Any, str]] = {
     "assumptions.shaft_rho": ("pos", "kg/m^3"),
     "assumptions.gap_flux_density": ("pos", "T"),
     "assumptions.em_variant": (("choice", ("calibrated", "literal")), "-"),
+    "assumptions.eccentricity_scale": ("nonneg", "-"),
     "assumptions.yield_stress": ("pos", "Pa"),
 }
 _OPTIONAL = {f"motor{i}.{k}": v for i in (1, 2) for k, v in _OPTIONAL_MOTOR_KEYS.items()}
@@ -211,6 +212,7 @@ class Params:
     static_eccentricity_angle: float
     gap_flux_density: float
     em_variant: str
+    eccentricity_scale: float
     yield_stress: float
     values: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
     meta: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, compare=False, repr=False)
