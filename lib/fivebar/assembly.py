@@ -1,0 +1,380 @@
+r"""Assembly of the global matrices of (2.7) from a topology description.
+
+The paper assembles
+
+.. math::
+
+    \mathbf M = \sum_i \mathbf B_i^\top \mathbf R_i^\top \overline{\mathbf M}_i
+    \mathbf R_i \mathbf B_i ,\qquad
+    \mathbf K = \mathbf K^e_{11} + \mathbf K^e_{21} + \sum_{i=3}^{8}
+    \mathbf B_i^\top \mathbf R_i^\top \overline{\mathbf K}_3 \mathbf R_i \mathbf B_i
+
+(section 2, after (2.8)) with hand-typed Boolean matrices :math:`\mathbf B_i` (A.12) and
+rotations :math:`\mathbf R_i` (A.11).  Here the B matrices are *derived* from a topology: the
+chain A-B-C-D-E of links L1 (A to B), L2 (B to C), L3 (C to D), L4 (D to E), each cut into a
+chosen number of elements (the paper's 1-2-2-1 by default), with these joints:
+
+* the pins B, C, D share the global x, y translation; each link end keeps its own slope; the
+  curvature is zero at a pin end (no moment);
+* the crank roots A and E do not translate; their curvature is free; their slope is the
+  torsion of the motor shaft at its coupling end (U4 at A, U8 at E: the crank is clamped to the
+  shaft, erratum E6).  With ``motors=False`` the roots are clamped (slope zero) and the motor
+  elements are left out.  ``tie_crank_roots=False`` is the literal reading of (A.12), which
+  leaves the crank-root slopes free and K singular;
+* interior nodes of a link carry x, y, slope and curvature.
+
+Supports and joints are imposed by identifying or eliminating DOFs, never by penalty springs.
+Walking the chain in this order numbers the DOFs exactly as the paper does (U1-U8 motors, then
+u9 ... u32), which :meth:`Model.paper_numbering` shows.
+
+Element DOFs are [u1, w1, w1', w1'', u2, w2, w2', w2''] in the element frame (u along the
+element from its first to its second node, w to the left); the global translations are
+:math:`(X, Y)` with :math:`u = X\cos\beta + Y\sin\beta`, :math:`w = -X\sin\beta + Y\cos\beta`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import tomllib
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .elements import beam_element, motor_element
+from .kinematics import LINKS, RigidState, link_angles
+from .params import DEFAULT_PARAMS_PATH, Params
+
+__all__ = [
+    "CHAIN",
+    "Dof",
+    "ElementInfo",
+    "Model",
+    "build_model",
+    "paper_b_matrices",
+    "PAPER_ELEMENTS_PER_LINK",
+]
+
+#: The paper's mesh: crank AB one element, couplers two each, crank DE one (Figure 5).
+PAPER_ELEMENTS_PER_LINK = (1, 2, 2, 1)
+
+#: (link, first joint, last joint) in the direction of the elements (Figure 5, (A.12)).
+CHAIN = (("L1", "A", "B"), ("L2", "B", "C"), ("L3", "C", "D"), ("L4", "D", "E"))
+_GROUND = {"A": 1, "E": 2}  # crank root -> motor number
+
+
+@dataclass(frozen=True)
+class Dof:
+    """One generalised coordinate: ``kind`` is x, y, slope, curvature (beam) or the motor's
+    U1..U4 kinds rotor_x, rotor_y, torsion_bearing, torsion_coupling; ``where`` names the node
+    ("B", "L2[1]" for interior node 1 of L2, "motor1"); ``link`` the link whose slope or
+    curvature it is (None for shared translations and motor DOFs)."""
+
+    label: str
+    kind: str
+    where: str
+    link: str | None = None
+
+
+@dataclass(frozen=True)
+class ElementInfo:
+    """One beam element: its link, index along the link, end fractions and DOF indices.
+
+    ``dofs`` holds, for the 8 local DOFs, the index of the global DOF (or -1 where the local
+    DOF is held at zero: translation at a crank root, curvature at a pin).  ``s0, s1`` are the
+    fractions along the link in the chain direction (:data:`CHAIN`).
+    """
+
+    link: str
+    index: int
+    s0: float
+    s1: float
+    length: float
+    dofs: tuple[int, ...]
+
+
+@dataclass
+class Model:
+    """The assembled finite-element structure of the linkage at a fixed topology.
+
+    Build it with :func:`build_model`.  All matrices are in the reduced coordinates ``q``
+    (``len(dofs)``); the paper's 32 numbered DOFs are a view, :meth:`paper_numbering`.
+    """
+
+    params: Params
+    elements_per_link: tuple[int, int, int, int]
+    motors: bool
+    tie_crank_roots: bool
+    dofs: list[Dof]
+    elements: list[ElementInfo]
+    paper_dofs: list[int]
+    motor_dofs: dict[int, tuple[int, int, int, int]]
+    node_dofs: dict[str, tuple[int, int]]
+    Me: dict[str, NDArray] = field(repr=False)
+    Ke: dict[str, NDArray] = field(repr=False)
+    Mm: dict[int, NDArray] = field(repr=False)
+    Km: dict[int, NDArray] = field(repr=False)
+    lumped: dict[str, float] = field(repr=False)
+
+    @property
+    def n(self) -> int:
+        """Number of generalised coordinates."""
+        return len(self.dofs)
+
+    # --- configuration-dependent matrices --------------------------------------------------
+    def element_angles(self, angles: dict[str, NDArray]) -> list[NDArray]:
+        """Angle (rad) of each element's axis for the link angles of :func:`link_angles`."""
+        out = []
+        for el in self.elements:
+            beta = np.asarray(angles[el.link], float)
+            if _reversed(el.link):
+                beta = beta + np.pi
+            out.append(beta)
+        return out
+
+    def _rotations(self, beta: NDArray) -> NDArray:
+        c, s = np.cos(beta), np.sin(beta)
+        R = np.zeros(beta.shape + (8, 8))
+        for k in (0, 4):
+            R[..., k, k] = c
+            R[..., k, k + 1] = s
+            R[..., k + 1, k] = -s
+            R[..., k + 1, k + 1] = c
+        for k in (2, 3, 6, 7):
+            R[..., k, k] = 1.0
+        return R
+
+    def matrices(self, theta1: ArrayLike, theta4: ArrayLike, mode: int = 1) -> tuple[NDArray, NDArray]:
+        """Global mass and stiffness matrices M, K at crank angles (rad).
+
+        ``M, K = model.matrices(theta1, theta4)``; with arrays of angles the result has
+        shape ``(..., n, n)``.  K holds the structural stiffness (beams and K11 of the
+        motors); the electromagnetic K0 of (2.7) is separate.
+        """
+        angles = link_angles(self.params, theta1, theta4, mode)
+        shape = np.shape(angles["L1"])
+        n = self.n
+        M = np.zeros(shape + (n, n))
+        K = np.zeros(shape + (n, n))
+        for el, beta in zip(self.elements, self.element_angles(angles)):
+            R = self._rotations(np.broadcast_to(beta, shape))
+            keep = [i for i, d in enumerate(el.dofs) if d >= 0]
+            g = np.array([el.dofs[i] for i in keep])
+            Rk = R[..., :, keep]  # local <- kept global
+            M[..., g[:, None], g[None, :]] += np.swapaxes(Rk, -1, -2) @ self.Me[el.link] @ Rk
+            K[..., g[:, None], g[None, :]] += np.swapaxes(Rk, -1, -2) @ self.Ke[el.link] @ Rk
+        for node, m in self.lumped.items():
+            for d in self.node_dofs[node]:
+                M[..., d, d] += m
+        for i, idx in self.motor_dofs.items():
+            g = np.array(idx)
+            M[..., g[:, None], g[None, :]] += self.Mm[i]
+            K[..., g[:, None], g[None, :]] += self.Km[i]
+        # R^T M R is symmetric only to round-off: make it exactly so
+        return 0.5 * (M + np.swapaxes(M, -1, -2)), 0.5 * (K + np.swapaxes(K, -1, -2))
+
+    # --- rigid-body fields --------------------------------------------------------------
+    def _rigid_field(self, state: RigidState, order: int) -> NDArray:
+        shape = np.shape(state.angle["L1"])
+        out = np.zeros(shape + (self.n,))
+        g = self.params.gravity if order == 2 else 0.0
+        rate = state.omega if order == 1 else state.alpha
+        for node, (ix, iy) in self.node_dofs.items():
+            link, s = _node_location(node, self.elements_per_link)
+            v = state.point(link, s)[order]
+            out[..., ix] = v[..., 0]
+            out[..., iy] = v[..., 1] + g
+        for i, d in enumerate(self.dofs):
+            if d.kind == "slope":
+                out[..., i] = rate[d.link]
+            elif d.kind.startswith("torsion"):
+                out[..., i] = rate["L1" if d.where == "motor1" else "L4"]
+        return out
+
+    def rigid_acceleration(self, state: RigidState) -> NDArray:
+        """The rigid acceleration array u_r'' of (2.7) in the generalised coordinates.
+
+        Translation DOFs: the rigid acceleration of the node (global x, y, m/s^2), plus the
+        gravity assumption (``params.gravity`` along -y enters as +g on y); slope DOFs: the
+        link's angular acceleration (rad/s^2); curvature DOFs: zero (the quintic shape
+        functions reproduce a rigid motion exactly); motor rotor DOFs: zero (the stator is
+        fixed); motor torsion DOFs: the crank's angular acceleration.
+        """
+        return self._rigid_field(state, 2)
+
+    def rigid_velocity(self, state: RigidState) -> NDArray:
+        """The rigid velocity field in the generalised coordinates (as :meth:`rigid_acceleration`,
+        one derivative lower).  With unit crank speeds it is the mechanism's rigid-body mode:
+        the displacement pattern of a small crank rotation."""
+        return self._rigid_field(state, 1)
+
+    # --- views -----------------------------------------------------------------------------
+    def paper_numbering(self) -> list[tuple[int, str, int]]:
+        """The paper's numbering: (paper number, label, index in q) for u1..u32.
+
+        Two paper DOFs share an index where the crank root is tied to the motor shaft
+        (u9 with U4, u31 with U8).
+        """
+        return [(k + 1, self.dofs[i].label, i) for k, i in enumerate(self.paper_dofs)]
+
+    def B_matrix(self, element: int) -> NDArray:
+        """The Boolean matrix B_i (A.12) of beam element ``element`` (0-based) in the paper's
+        numbering of the beam DOFs 9..32: shape (8, number of beam DOFs)."""
+        beam = self.paper_dofs[8:] if self.motors else self.paper_dofs
+        col = {q: j for j, q in enumerate(beam)}
+        B = np.zeros((8, len(beam)))
+        for r, d in enumerate(self.elements[element].dofs):
+            if d >= 0:
+                B[r, col[d]] = 1.0
+        return B
+
+    def dof_index(self, label: str) -> int:
+        """Index in q of the DOF with this label (e.g. ``"L2[1].y"``, ``"U4"``)."""
+        for i, d in enumerate(self.dofs):
+            if d.label == label:
+                return i
+        raise KeyError(f"no DOF labelled {label!r}; labels are {[d.label for d in self.dofs]}")
+
+
+def _reversed(link: str) -> bool:
+    """Whether the chain direction of a link is opposite to its kinematic direction."""
+    (_, a, b), = [c for c in CHAIN if c[0] == link]
+    return LINKS[link] != (a, b)
+
+
+def _node_location(node: str, epl: tuple[int, ...]) -> tuple[str, float]:
+    """(link, fraction along the link's kinematic direction) of a translating node."""
+    if "[" in node:
+        link, j = node[:-1].split("[")
+        n = epl[int(link[1]) - 1]
+        s = int(j) / n
+    else:
+        link, s = {"B": ("L1", 1.0), "C": ("L2", 1.0), "D": ("L3", 1.0)}[node]
+    if _reversed(link):
+        s = 1.0 - s
+    return link, s
+
+
+def build_model(
+    params: Params,
+    elements_per_link: tuple[int, int, int, int] | None = None,
+    motors: bool = True,
+    tie_crank_roots: bool = True,
+) -> Model:
+    """Number the DOFs, build the element matrices and return the :class:`Model`.
+
+    ``model = build_model(params)`` gives the paper's 1-2-2-1 mesh with both motors.
+
+    Parameters
+    ----------
+    params
+        Parameter set (link section from ``width``, ``thickness``, ``bending_depth``).
+    elements_per_link
+        Elements on L1, L2, L3, L4 (each >= 1); ``None`` is the paper's (1, 2, 2, 1).
+    motors
+        Include the two motor elements (DOFs U1-U8) with the crank roots tied to the shaft
+        torsion; ``False`` clamps the crank roots (rigid motor shafts).
+    tie_crank_roots
+        ``False`` gives the literal reading of (A.12) (crank-root slopes independent of the
+        motors: singular K); only meaningful with ``motors=True``.
+    """
+    epl = PAPER_ELEMENTS_PER_LINK if elements_per_link is None else tuple(elements_per_link)
+    if len(epl) != 4 or any(isinstance(k, bool) or int(k) != k or k < 1 for k in epl):
+        raise ValueError(
+            f"elements_per_link = {elements_per_link!r} is not allowed: give four integers >= 1 "
+            "(elements on L1, L2, L3, L4)"
+        )
+    epl = tuple(int(k) for k in epl)
+    dofs: list[Dof] = []
+    paper: list[int] = []
+
+    def new(label: str, kind: str, where: str, link: str | None = None) -> int:
+        dofs.append(Dof(label, kind, where, link))
+        paper.append(len(dofs) - 1)
+        return len(dofs) - 1
+
+    motor_dofs: dict[int, tuple[int, int, int, int]] = {}
+    if motors:
+        for i in (1, 2):
+            base = 4 * (i - 1)
+            motor_dofs[i] = tuple(
+                new(f"U{base + k + 1}", kind, f"motor{i}")
+                for k, kind in enumerate(("rotor_x", "rotor_y", "torsion_bearing", "torsion_coupling"))
+            )
+
+    node_dofs: dict[str, tuple[int, int]] = {}
+    elements: list[ElementInfo] = []
+    lengths = dict(zip(("L1", "L2", "L3", "L4"), params.lengths[:4]))
+    for (link, first, last), ne in zip(CHAIN, epl):
+        # nodal DOFs of this link: (x, y, slope, curvature) with -1 for zero
+        nodes: list[tuple[int, int, int, int]] = []
+        for j in range(ne + 1):
+            joint = first if j == 0 else last if j == ne else None
+            if joint in _GROUND:
+                mi = _GROUND[joint]
+                if motors and tie_crank_roots:
+                    slope = motor_dofs[mi][3]
+                    paper.append(slope)  # the paper's u9 / u31 is U4 / U8
+                elif motors:
+                    slope = new(f"{link}@{joint}.slope", "slope", joint, link)
+                else:
+                    slope = -1
+                curv = new(f"{link}@{joint}.curvature", "curvature", joint, link)  # after the slope, as u10, u32
+                nodes.append((-1, -1, slope, curv))
+            elif joint is not None:  # a pin: shared translation, own slope, zero curvature
+                if joint not in node_dofs:
+                    node_dofs[joint] = (new(f"{joint}.x", "x", joint), new(f"{joint}.y", "y", joint))
+                slope = new(f"{link}@{joint}.slope", "slope", joint, link)
+                nodes.append((*node_dofs[joint], slope, -1))
+            else:  # interior node
+                name = f"{link}[{j}]"
+                ix, iy = new(f"{name}.x", "x", name), new(f"{name}.y", "y", name)
+                node_dofs[name] = (ix, iy)
+                slope = new(f"{name}.slope", "slope", name, link)
+                curv = new(f"{name}.curvature", "curvature", name, link)
+                nodes.append((ix, iy, slope, curv))
+        Le = lengths[link] / ne
+        for j in range(ne):
+            a, b = nodes[j], nodes[j + 1]
+            elements.append(
+                ElementInfo(link, j, j / ne, (j + 1) / ne, Le, (a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]))
+            )
+
+    Me, Ke = {}, {}
+    for link, ne in zip(("L1", "L2", "L3", "L4"), epl):
+        Me[link], Ke[link] = beam_element(
+            lengths[link] / ne, params.E, params.A, params.I, params.rho, rotary_inertia=bool(params.rotary_inertia)
+        )
+    Mm, Km = {}, {}
+    if motors:
+        for i, motor in ((1, params.motor1), (2, params.motor2)):
+            Mm[i], Km[i] = motor_element(motor)
+    return Model(
+        params=params,
+        elements_per_link=epl,
+        motors=motors,
+        tie_crank_roots=tie_crank_roots,
+        dofs=dofs,
+        elements=elements,
+        paper_dofs=paper,
+        motor_dofs=motor_dofs,
+        node_dofs=node_dofs,
+        Me=Me,
+        Ke=Ke,
+        Mm=Mm,
+        Km=Km,
+        lumped={"B": params.m01, "C": params.m02},
+    )
+
+
+def paper_b_matrices() -> dict[int, NDArray]:
+    """The B matrices of the beam elements 3..8 as printed in (A.12) (8 x 24 each, global
+    DOFs 9..32), read from ``data/paper_b_matrices.toml``."""
+    doc = tomllib.loads((DEFAULT_PARAMS_PATH.parent / "paper_b_matrices.toml").read_text())
+    out = {}
+    for name, pairs in doc["printed"].items():
+        B = np.zeros((8, 24))
+        for local, glob in pairs:
+            B[local - 1, glob - 9] = 1.0
+        out[int(name[1:])] = B
+    return out

@@ -1,0 +1,137 @@
+r"""Natural frequencies and mode shapes of the linkage, frozen or along the cycle.
+
+At a frozen configuration the undamped linear free vibration of (2.7) gives the generalised
+symmetric eigenproblem
+
+.. math::
+
+    \mathbf K \boldsymbol\phi = \omega^2 \mathbf M \boldsymbol\phi ,
+
+whose roots change as the linkage moves.  The modal transformation (3.1)-(3.3) uses the modes
+of the *mean* system: M and K averaged over one period of the motion (the paper's "instantaneous
+natural frequency mean"); :func:`mean_modes` gives them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from .assembly import Model, build_model
+from .kinematics import crank_laws
+from .params import Params
+
+__all__ = ["Modes", "modes", "natural_frequencies", "frequencies_along_cycle", "mean_modes"]
+
+
+@dataclass(frozen=True)
+class Modes:
+    """Modes of a linkage model: ``frequencies`` (Hz, ascending), ``shapes`` (n x k, columns
+    mass-normalised: shapes.T @ M @ shapes = I), ``omega`` (rad/s) and the ``model``."""
+
+    frequencies: NDArray
+    shapes: NDArray
+    model: Model
+
+    @property
+    def omega(self) -> NDArray:
+        """Circular natural frequencies (rad/s)."""
+        return 2.0 * np.pi * self.frequencies
+
+
+def _eig(M: NDArray, K: NDArray, n: int | None) -> tuple[NDArray, NDArray]:
+    subset = None if n is None else (0, min(n, M.shape[0]) - 1)
+    w2, V = scipy.linalg.eigh(K, M, subset_by_index=subset)
+    return np.sqrt(np.clip(w2, 0.0, None)) / (2.0 * np.pi), V
+
+
+def _model(params: Params, motors: bool, elements_per_link, model: Model | None) -> Model:
+    if model is not None:
+        return model
+    return build_model(params, elements_per_link=elements_per_link, motors=motors)
+
+
+def modes(
+    params: Params,
+    theta1: float,
+    theta4: float,
+    n: int | None = 6,
+    motors: bool = True,
+    elements_per_link: tuple[int, int, int, int] | None = None,
+    model: Model | None = None,
+) -> Modes:
+    """Lowest ``n`` modes at one frozen configuration (crank angles in rad).
+
+    ``n=None`` returns all modes.  Pass a prebuilt ``model`` to skip the assembly set-up.
+    """
+    m = _model(params, motors, elements_per_link, model)
+    M, K = m.matrices(theta1, theta4)
+    f, V = _eig(M, K, n)
+    return Modes(f, V, m)
+
+
+def natural_frequencies(
+    params: Params,
+    theta1: float,
+    theta4: float,
+    n: int = 6,
+    motors: bool = True,
+    elements_per_link: tuple[int, int, int, int] | None = None,
+) -> NDArray:
+    """The ``n`` lowest natural frequencies (Hz) at crank angles ``theta1, theta4`` (rad).
+
+    ``motors=False`` clamps the crank roots (rigid motor shafts) and leaves the motor
+    elements out.  ``elements_per_link`` refines the mesh (default the paper's 1-2-2-1).
+    """
+    if isinstance(n, bool) or int(n) != n or n < 1:
+        raise ValueError(f"n = {n!r} is not allowed: give a positive integer number of modes")
+    return modes(params, theta1, theta4, int(n), motors, elements_per_link).frequencies
+
+
+def frequencies_along_cycle(
+    params: Params,
+    crank_angles: ArrayLike,
+    n: int = 6,
+    motors: bool = True,
+    elements_per_link: tuple[int, int, int, int] | None = None,
+) -> NDArray:
+    """Lowest ``n`` natural frequencies (Hz) at the configurations of the default crank laws.
+
+    ``crank_angles`` are angles of crank AB (rad) measured from its initial angle; crank DE
+    follows with the speed ratio of the parameters.  Returns shape ``(len(crank_angles), n)``.
+    """
+    phi = np.atleast_1d(np.asarray(crank_angles, float))
+    th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed)
+    m = build_model(params, elements_per_link=elements_per_link, motors=motors)
+    M, K = m.matrices(th1, th4)
+    return np.array([_eig(Mi, Ki, n)[0] for Mi, Ki in zip(M, K)])
+
+
+def mean_modes(
+    params: Params,
+    steps: int | None = None,
+    n: int | None = None,
+    motors: bool = True,
+    elements_per_link: tuple[int, int, int, int] | None = None,
+) -> Modes:
+    """Modes of the period-mean system (M and K averaged over one period of the motion).
+
+    Parameters
+    ----------
+    steps
+        Number of equally spaced instants over the period (default the parameters' S).
+    n
+        Number of modes (default all).
+    """
+    S = params.steps_per_period if steps is None else int(steps)
+    if S < 1:
+        raise ValueError(f"steps = {steps!r} is not allowed: give a positive integer")
+    t = np.arange(S) * params.period / S
+    th1, _, _, th4, _, _ = crank_laws(params, t)
+    m = build_model(params, elements_per_link=elements_per_link, motors=motors)
+    M, K = m.matrices(th1, th4)
+    f, V = _eig(M.mean(axis=0), K.mean(axis=0), n)
+    return Modes(f, V, m)

@@ -1,0 +1,174 @@
+"""Assembly: the paper's numbering, rigid-body invariance, energies, and mesh convergence."""
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from fivebar import load_params
+from fivebar.assembly import build_model, paper_b_matrices
+from fivebar.elements import gauss_points, shape_functions
+from fivebar.kinematics import rigid_state
+from fivebar.modal import mean_modes, natural_frequencies
+
+P = load_params()
+ANGLES = [(0.0, 0.0), (1.1, -2.0), (2.5, 0.7), (-0.8, 3.0)]
+
+
+def test_paper_numbering_reproduces_A12_up_to_the_misprints():
+    m = build_model(P)
+    assert m.n == 30  # 32 numbered DOFs, two of them (u9, u31) the motor torsions U4, U8
+    numbering = m.paper_numbering()
+    assert len(numbering) == 32
+    assert numbering[8][1] == "U4" and numbering[30][1] == "U8"
+    printed = paper_b_matrices()
+    for i in range(3, 9):
+        derived = m.B_matrix(i - 3)
+        diff = printed[i] - derived
+        if i == 6:  # erratum E5: the printed (B6)_{3,21} is the only difference
+            assert np.argwhere(diff).tolist() == [[2, 21 - 9]]
+            assert diff[2, 21 - 9] == 1
+        else:
+            assert np.array_equal(printed[i], derived), i
+
+
+def test_dof_kinds_match_the_paper_list_with_U25_for_the_repeated_U22():
+    m = build_model(P, tie_crank_roots=False)
+    kinds = {k: [n for n, _, i in m.paper_numbering() if m.dofs[i].kind == k] for k in ("x", "y", "slope", "curvature")}
+    assert sorted(kinds["x"] + kinds["y"]) == [11, 12, 15, 16, 19, 20, 23, 24, 27, 28]
+    assert kinds["slope"] == [9, 13, 14, 17, 21, 22, 25, 29, 30, 31]
+    assert kinds["curvature"] == [10, 18, 26, 32]
+
+
+@pytest.mark.parametrize("epl", [(1, 2, 2, 1), (2, 3, 3, 2)])
+def test_matrices_symmetric_definite(epl):
+    m = build_model(P, elements_per_link=epl)
+    M, K = m.matrices(*np.array(ANGLES).T)
+    for Mi, Ki in zip(M, K):
+        assert np.allclose(Mi, Mi.T, atol=0) and np.allclose(Ki, Ki.T, atol=0)
+        assert np.linalg.eigvalsh(Mi).min() > 0
+        w2 = scipy.linalg.eigh(Ki, Mi, eigvals_only=True)
+        assert w2.min() > 1.0  # tied to the motor shafts: no rigid-body mode left
+
+
+def test_literal_A12_gives_singular_K_with_the_two_mechanism_modes():
+    """Erratum E6: untied crank roots leave the 2-DOF mechanism free; its two rigid-body modes
+    (from the kinematics, an independent computation) carry no strain energy."""
+    m = build_model(P, tie_crank_roots=False)
+    for th1, th4 in ANGLES:
+        M, K = m.matrices(th1, th4)
+        w2 = scipy.linalg.eigh(K, M, eigvals_only=True)
+        assert np.sum(np.abs(w2) < 1e-6 * w2.max()) == 2
+        for w1, w4 in ((1.0, 0.0), (0.0, 1.0)):
+            q = m.rigid_velocity(rigid_state(P, th1, w1, 0.0, th4, w4, 0.0))
+            # the motor DOFs do not move in this pattern when untied
+            q[:8] = 0.0
+            assert q @ K @ q < 1e-9 * (q @ q) * np.abs(K).max()
+
+
+def test_tied_mechanism_mode_is_resisted_by_the_shaft_torsion_only():
+    """Turning crank AB rigidly by d theta twists motor 1's shaft at the coupling end; with
+    U3 free, the shaft acts as the series spring G Jp / (l2 + l3)."""
+    m = build_model(P)
+    mot = P.motor1
+    GJ = mot.shaft_G * np.pi * mot.shaft_diameter**4 / 32
+    for th1, th4 in ANGLES:
+        _, K = m.matrices(th1, th4)
+        q = m.rigid_velocity(rigid_state(P, th1, 1.0, 0.0, th4, 0.0, 0.0))
+        i3, i4 = m.motor_dofs[1][2], m.motor_dofs[1][3]
+        assert q[i4] == 1.0
+        q[m.motor_dofs[2][3]] = 0.0
+        # minimise the energy over U3 (static condensation), by hand
+        q[i3] = 0.0
+        a = K[i3, i3]
+        b = K[i3] @ q
+        q[i3] = -b / a
+        assert q @ K @ q == pytest.approx(GJ / (mot.l2 + mot.l3), rel=1e-9)
+
+
+@pytest.mark.parametrize("rotary", [0, 1])
+def test_kinetic_energy_of_the_rigid_motion(rotary):
+    """1/2 v^T M v for the rigid velocity field equals the rigid-body kinetic energy of the
+    links (bars of length L and in-plane depth d) and the lumped masses."""
+    p = P.replace(rotary_inertia=rotary)
+    m = build_model(p, elements_per_link=(2, 3, 3, 2), tie_crank_roots=False)
+    for th1, th4 in ANGLES:
+        st = rigid_state(p, th1, 3.0, 0.0, th4, -2.0, 0.0)
+        v = m.rigid_velocity(st)
+        v[:8] = 0.0
+        M, _ = m.matrices(th1, th4)
+        T_fe = 0.5 * v @ M @ v
+        T = 0.0
+        for link, L in zip(("L1", "L2", "L3", "L4"), p.lengths):
+            mass = p.rho * p.A * L
+            _, vG, _ = st.point(link, 0.5)
+            IG = mass * (L**2 + rotary * p.bending_depth**2) / 12
+            T += 0.5 * mass * vG @ vG + 0.5 * IG * st.omega[link] ** 2
+        T += 0.5 * p.m01 * st.vel["B"] @ st.vel["B"] + 0.5 * p.m02 * st.vel["C"] @ st.vel["C"]
+        assert T_fe == pytest.approx(T, rel=1e-12)
+
+
+def test_inertial_load_is_the_consistent_load_of_the_rigid_acceleration_field():
+    """-M u_r'' equals the virtual work of the distributed rigid inertial load, computed by
+    quadrature of the acceleration field along each element (an independent route)."""
+    p = P.replace(rotary_inertia=0)
+    m = build_model(p, tie_crank_roots=False)
+    th1, th4 = 0.9, -1.7
+    st = rigid_state(p, th1, 4.0, 30.0, th4, 2.5, -12.0)
+    M, _ = m.matrices(th1, th4)
+    F_fe = -M @ m.rigid_acceleration(st)
+    F = np.zeros(m.n)
+    for el in m.elements:
+        beta = m.element_angles({k: st.angle[k] for k in st.angle})[m.elements.index(el)]
+        c, s = np.cos(beta), np.sin(beta)
+        x, w = gauss_points(8, el.length)
+        N = shape_functions(x, el.length)  # (npts, 8)
+        reverse = el.link == "L4"
+        frac = el.s0 + x / p.lengths[int(el.link[1]) - 1]
+        kin = 1.0 - frac if reverse else frac
+        _, _, acc = st.point(el.link, kin)
+        a_u = c * acc[:, 0] + s * acc[:, 1]
+        a_w = -s * acc[:, 0] + c * acc[:, 1]
+        load = np.where(np.isin(np.arange(8), [0, 4]), 1, 0)
+        f_loc = -p.rho * p.A * (w[:, None] * N * np.where(load, a_u[:, None], a_w[:, None])).sum(axis=0)
+        R = m._rotations(np.asarray(beta))
+        f_glob = R.T @ f_loc
+        for k, d in enumerate(el.dofs):
+            if d >= 0:
+                F[d] += f_glob[k]
+    for node, mass in m.lumped.items():
+        ix, iy = m.node_dofs[node]
+        F[[ix, iy]] -= mass * st.acc[node]
+    beam = slice(8, None)  # the motor DOFs take the paper's -M u_r'' with U3, U4 -> crank alpha
+    assert np.allclose(F_fe[beam], F[beam], rtol=1e-10, atol=1e-10 * np.abs(F).max())
+    Mm = m.Mm[1]
+    assert np.allclose(F_fe[:4], -Mm @ [0, 0, 30.0, 30.0])
+
+
+@pytest.mark.parametrize("motors", [True, False])
+def test_frozen_frequencies_converge_under_refinement(motors):
+    meshes = [(1, 2, 2, 1), (2, 4, 4, 2), (4, 8, 8, 4), (8, 16, 16, 8)]
+    f = np.array([natural_frequencies(P, 0.4, 1.3, n=6, motors=motors, elements_per_link=e) for e in meshes])
+    err = np.abs(f[:-1] - f[-1]) / f[-1]
+    assert np.all(f[:-1] >= f[-1] * (1 - 1e-12))  # consistent mass: frequencies from above
+    assert np.all(err[1] <= err[0] + 1e-12) and np.all(err[2] <= err[1] + 1e-12)
+    assert err[1].max() < 1e-3 and err[0].max() < 2e-2
+
+
+def test_mean_modes_are_mass_normalised():
+    md = mean_modes(P, steps=12, n=5)
+    m = md.model
+    from fivebar.kinematics import crank_laws
+
+    t = np.arange(12) * P.period / 12
+    th1, _, _, th4, _, _ = crank_laws(P, t)
+    M, K = m.matrices(th1, th4)
+    Mb, Kb = M.mean(0), K.mean(0)
+    assert np.allclose(md.shapes.T @ Mb @ md.shapes, np.eye(5), atol=1e-9)
+    assert np.allclose(md.shapes.T @ Kb @ md.shapes, np.diag(md.omega**2), rtol=1e-9, atol=1e-6)
+
+
+def test_bad_mesh_and_mode_count():
+    with pytest.raises(ValueError, match=r"elements_per_link = \(1, 0, 2, 1\)"):
+        build_model(P, elements_per_link=(1, 0, 2, 1))
+    with pytest.raises(ValueError, match="n = 0"):
+        natural_frequencies(P, 0, 0, n=0)
