@@ -22,6 +22,7 @@ from fivebar.elements import (
     TRANSVERSE_DOFS,
     assemble_line,
     beam_element,
+    bending_frequencies,
     gauss_points,
     motor_element,
     motor_shape_functions,
@@ -175,8 +176,9 @@ def test_beam_matrices_equal_exact_integrals(rotary_inertia):
     np.testing.assert_allclose(K, Ke, rtol=1e-12, atol=1e-14 * np.abs(Ke).max())
     L, E, A, I, rho = LINK["L"], LINK["E"], LINK["A"], LINK["I"], LINK["rho"]
     # textbook entries: linear rod and int (gamma2'')^2 = 120/7 / L^3
-    np.testing.assert_allclose(M[np.ix_([0, 4], [0, 4])], rho * A * L / 6 * np.array([[2, 1], [1, 2]]))
-    np.testing.assert_allclose(K[np.ix_([0, 4], [0, 4])], E * A / L * np.array([[1, -1], [-1, 1]]))
+    ax = np.ix_([0, 4], [0, 4])
+    np.testing.assert_allclose(M[ax], rho * A * L / 6 * np.array([[2, 1], [1, 2]]))
+    np.testing.assert_allclose(K[ax], E * A / L * np.array([[1, -1], [-1, 1]]))
     assert K[1, 1] == pytest.approx(120 / 7 * E * I / L**3, rel=1e-13)
 
 
@@ -212,7 +214,7 @@ def test_rigid_modes_and_their_kinetic_energy():
     M0, _ = beam_element(**LINK, rotary_inertia=False)
     axial = np.array([1, 0, 0, 0, 1, 0, 0, 0.0])  # u = 1
     transverse = np.array([0, 1, 0, 0, 0, 1, 0, 0.0])  # w = 1
-    rotation = np.array([0, 0, 1, 0, 0, L, 1, 0.0])  # w = xbar, w' = 1 (small rotation about node 1)
+    rotation = np.array([0, 0, 1, 0, 0, L, 1, 0.0])  # w = xbar, w' = 1: rotation about node 1
     for q in (axial, transverse, rotation):
         assert np.linalg.norm(K @ q) < 1e-12 * np.linalg.norm(K) * np.linalg.norm(q)
     m = rho * A * L
@@ -248,30 +250,25 @@ def test_shape_function_argument_errors():
         shape_functions(0.0, 0)
     with pytest.raises(ValueError, match="n = 0"):
         assemble_line(0, **LINK)
+    with pytest.raises(ValueError, match="supports = 'free'"):
+        bending_frequencies(2, **LINK, supports="free")
+    with pytest.raises(ValueError, match="modes = 9"):
+        bending_frequencies(1, **LINK, supports="clamped-free", modes=9)
 
 
 # --- beams of several elements against closed forms -------------------------------------------
 BEAM = dict(L=1.0, E=70e9, A=6e-5, I=4.5e-9, rho=2700.0)
 
 
-def bending_frequencies(n, supports, rotary_inertia=False, beam=BEAM, k=3):
-    """First k bending circular frequencies (rad/s) of a beam of n elements."""
-    M, K = assemble_line(n, **beam, rotary_inertia=rotary_inertia)
-    N = M.shape[0]
-    last = N - 4
-    fixed = {"simply supported": [1, 3, last + 1, last + 3],  # w = w'' = 0 at both ends
-             "clamped-free": [1, 2]}[supports]  # w = w' = 0 at x = 0; w'' free
-    keep = [i for i in range(N) if i % 4 != 0 and i not in fixed]  # bending DOFs only
-    lam = sl.eigh(K[np.ix_(keep, keep)], M[np.ix_(keep, keep)], eigvals_only=True)
-    return np.sqrt(lam[:k])
-
-
 def closed_form(supports, beam=BEAM, k=3):
-    if supports == "simply supported":
+    if supports == "simply-supported":
         beta_L = np.pi * np.arange(1, k + 1)
-    else:  # roots of cos(bL) cosh(bL) + 1 = 0
+    elif supports == "clamped-free":  # roots of cos(bL) cosh(bL) + 1 = 0
         beta_L = np.array([brentq(lambda b: np.cos(b) * np.cosh(b) + 1, (j - 1) * np.pi,
                                   j * np.pi) for j in range(1, k + 1)])
+    else:  # clamped-clamped: nonzero roots of cos(bL) cosh(bL) - 1 = 0
+        beta_L = np.array([brentq(lambda b: np.cos(b) * np.cosh(b) - 1, (j + 0.1) * np.pi,
+                                  (j + 0.9) * np.pi) for j in range(1, k + 1)])
     L = beam["L"]
     return (beta_L / L) ** 2 * np.sqrt(beam["E"] * beam["I"] / (beam["rho"] * beam["A"]))
 
@@ -280,19 +277,23 @@ def test_cantilever_roots():
     b = closed_form("clamped-free") * BEAM["L"] ** 2 / np.sqrt(
         BEAM["E"] * BEAM["I"] / (BEAM["rho"] * BEAM["A"]))
     np.testing.assert_allclose(np.sqrt(b), [1.8751, 4.6941, 7.8548], atol=5e-5)
+    b = closed_form("clamped-clamped") * BEAM["L"] ** 2 / np.sqrt(
+        BEAM["E"] * BEAM["I"] / (BEAM["rho"] * BEAM["A"]))
+    np.testing.assert_allclose(np.sqrt(b), [4.7300, 7.8532, 10.9956], atol=5e-5)
 
 
-@pytest.mark.parametrize("supports", ["simply supported", "clamped-free"])
+@pytest.mark.parametrize("supports", ["simply-supported", "clamped-free", "clamped-clamped"])
 def test_four_elements_within_0p1_percent(supports):
-    err = bending_frequencies(4, supports) / closed_form(supports) - 1
+    err = bending_frequencies(4, **BEAM, supports=supports) / closed_form(supports) - 1
     assert np.all(np.abs(err) < 1e-3), err
     assert np.all(err > -1e-9)  # a conforming Rayleigh-Ritz model is never too soft
 
 
 def test_convergence_rate_is_eight():
     # frequency error of the quintic Hermite element ~ h^(2(p + 1 - m)) = h^8 (p = 5, m = 2)
-    e4 = bending_frequencies(4, "simply supported") / closed_form("simply supported") - 1
-    e8 = bending_frequencies(8, "simply supported") / closed_form("simply supported") - 1
+    exact = closed_form("simply-supported")
+    e4 = bending_frequencies(4, **BEAM, supports="simply-supported") / exact - 1
+    e8 = bending_frequencies(8, **BEAM, supports="simply-supported") / exact - 1
     rate = np.log2(e4[1:] / e8[1:])  # modes 2 and 3 (mode 1 is at rounding level at n = 8)
     assert np.all((rate > 7.5) & (rate < 9.0)), rate
 
@@ -304,9 +305,9 @@ def test_rotary_inertia_matches_rayleigh_beam():
     kn = np.pi * np.arange(1, 4) / beam["L"]
     exact = np.sqrt(beam["E"] * beam["I"] * kn**4
                     / (beam["rho"] * beam["A"] * (1 + kn**2 * beam["I"] / beam["A"])))
-    fe = bending_frequencies(8, "simply supported", rotary_inertia=True, beam=beam)
+    fe = bending_frequencies(8, **beam, supports="simply-supported", rotary_inertia=True)
     np.testing.assert_allclose(fe, exact, rtol=1e-6)
-    eb = bending_frequencies(8, "simply supported", rotary_inertia=False, beam=beam)
+    eb = bending_frequencies(8, **beam, supports="simply-supported", rotary_inertia=False)
     assert np.all(eb / fe - 1 > 0.005)  # the effect is real: 0.9 % to 8 % here
 
 
@@ -367,7 +368,8 @@ def test_motor_shape_functions_nodal_values(motor):
 def test_motor_mass_closed_form(motor):
     A_s, I_s, J_p = shaft_section(motor.shaft_diameter)
     d = motor.shaft_diameter
-    assert (A_s, I_s, J_p) == pytest.approx((math.pi * d**2 / 4, math.pi * d**4 / 64, math.pi * d**4 / 32))
+    assert (A_s, I_s, J_p) == pytest.approx((math.pi * d**2 / 4, math.pi * d**4 / 64,
+                                             math.pi * d**4 / 32))
     b2, _ = bump_integrals()
     rho, l1, l2, l3 = motor.shaft_rho, motor.l1, motor.l2, motor.l3
     M, _ = motor_element(motor)
@@ -397,7 +399,8 @@ def test_motor_stiffness_closed_form(motor):
     GJ = G * J_p
     expected = np.zeros((4, 4))
     expected[0, 0] = expected[1, 1] = bend
-    expected[2:, 2:] = [[GJ / l2 + GJ / l3, -GJ / l3], [-GJ / l3, GJ / l3]]  # springs l2, l3 in series
+    # the spans l2 and l3 are torsion springs in series
+    expected[2:, 2:] = [[GJ / l2 + GJ / l3, -GJ / l3], [-GJ / l3, GJ / l3]]
     np.testing.assert_allclose(K, expected, rtol=1e-12, atol=1e-12 * bend)
     assert K[0, 1] == 0 and K[1, 0] == 0  # (E11): no x-y coupling
     np.testing.assert_array_equal(K, K.T)

@@ -42,6 +42,7 @@ import math
 from typing import Literal
 
 import numpy as np
+import scipy.linalg
 from numpy.polynomial import polynomial as P
 
 from .params import Motor
@@ -53,6 +54,7 @@ __all__ = [
     "shape_functions",
     "beam_element",
     "assemble_line",
+    "bending_frequencies",
     "shaft_section",
     "motor_shape_functions",
     "motor_element",
@@ -113,23 +115,27 @@ def _positive(name: str, value: float) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} = {value!r} is not allowed: it must be a positive finite number") from None
+        v = math.nan
     if not (math.isfinite(v) and v > 0):
         raise ValueError(f"{name} = {value!r} is not allowed: it must be a positive finite number")
     return v
 
 
 def _order(derivative: int) -> int:
-    if isinstance(derivative, bool) or not isinstance(derivative, (int, np.integer)) or derivative < 0:
-        raise ValueError(
-            f"derivative = {derivative!r} is not allowed: it must be an integer >= 0"
-        )
+    if not _is_int(derivative) or derivative < 0:
+        raise ValueError(f"derivative = {derivative!r} is not allowed: it must be an integer >= 0")
     return int(derivative)
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
 
 
 def _variant(variant: str) -> str:
     if variant not in ("corrected", "printed"):
-        raise ValueError(f"variant = {variant!r} is not allowed: it must be 'corrected' or 'printed'")
+        raise ValueError(
+            f"variant = {variant!r} is not allowed: it must be 'corrected' or 'printed'"
+        )
     return variant
 
 
@@ -139,7 +145,8 @@ def _points(x: np.typing.ArrayLike, name: str, length: float) -> np.ndarray:
     bad = ~np.isfinite(x) | (x < -tol) | (x > length + tol)
     if np.any(bad):
         raise ValueError(
-            f"{name} = {float(x[bad].ravel()[0])!r} is outside the element: it must lie in [0, {length!r}] m"
+            f"{name} = {float(x[bad].ravel()[0])!r} is outside the element: "
+            f"it must lie in [0, {length!r}] m"
         )
     return x
 
@@ -168,7 +175,7 @@ def gauss_points(n: int, L: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     >>> round(float(w @ x**5), 12)  # int_0^2 x^5 dx = 64/6
     10.666666666667
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+    if not _is_int(n) or n < 1:
         raise ValueError(f"n = {n!r} is not allowed: it must be a positive integer")
     L = _positive("L", L)
     t, w = np.polynomial.legendre.leggauss(int(n))
@@ -305,7 +312,7 @@ def assemble_line(
     -------
     M, K : ndarray, shape (4 (n + 1), 4 (n + 1))
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+    if not _is_int(n) or n < 1:
         raise ValueError(f"n = {n!r} is not allowed: it must be a positive integer")
     L = _positive("L", L)
     Me, Ke = beam_element(L / n, E, A, I, rho, rotary_inertia)
@@ -317,6 +324,62 @@ def assemble_line(
         M[s, s] += Me
         K[s, s] += Ke
     return M, K
+
+
+_SUPPORTS = {
+    # bending DOFs held at zero, as offsets from the first (0) or the last (-1) node
+    "simply-supported": ((0, 1), (0, 3), (-1, 1), (-1, 3)),  # w = w'' = 0 at both ends
+    "clamped-free": ((0, 1), (0, 2)),  # w = w' = 0 at x = 0 (w'' free); x = L free
+    "clamped-clamped": ((0, 1), (0, 2), (-1, 1), (-1, 2)),
+}
+
+
+def bending_frequencies(
+    n: int,
+    L: float,
+    E: float,
+    A: float,
+    I: float,  # noqa: E741
+    rho: float,
+    supports: str = "clamped-free",
+    rotary_inertia: bool = False,
+    modes: int = 3,
+) -> np.ndarray:
+    """Lowest bending circular frequencies of a uniform beam of ``n`` elements.
+
+    The beam of :func:`assemble_line` with its axial DOFs left out and the supports imposed by
+    deleting DOFs.
+
+    Parameters
+    ----------
+    n, L, E, A, I, rho, rotary_inertia
+        As in :func:`assemble_line` (m, Pa, m^2, m^4, kg/m^3).
+    supports
+        ``"simply-supported"`` (w = w'' = 0 at both ends), ``"clamped-free"`` (w = w' = 0 at
+        x = 0) or ``"clamped-clamped"`` (w = w' = 0 at both ends).
+    modes
+        How many frequencies to return.
+
+    Returns
+    -------
+    ndarray, shape (modes,)
+        Circular frequencies (rad/s), ascending.
+    """
+    if supports not in _SUPPORTS:
+        raise ValueError(
+            f"supports = {supports!r} is not allowed: it must be one of {list(_SUPPORTS)}"
+        )
+    M, K = assemble_line(n, L, E, A, I, rho, rotary_inertia)
+    last = M.shape[0] // 4 - 1
+    fixed = {4 * (last if node == -1 else node) + dof for node, dof in _SUPPORTS[supports]}
+    keep = [i for i in range(M.shape[0]) if i % 4 != 0 and i not in fixed]
+    if not _is_int(modes) or not 1 <= modes <= len(keep):
+        raise ValueError(
+            f"modes = {modes!r} is not allowed: it must be an integer in [1, {len(keep)}]"
+        )
+    lam = scipy.linalg.eigh(K[np.ix_(keep, keep)], M[np.ix_(keep, keep)], eigvals_only=True,
+                            subset_by_index=[0, modes - 1])
+    return np.sqrt(lam)
 
 
 # --- motor element (A.1)-(A.4) ---------------------------------------------------------------
