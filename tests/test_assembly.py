@@ -172,3 +172,30 @@ def test_bad_mesh_and_mode_count():
         build_model(P, elements_per_link=(1, 0, 2, 1))
     with pytest.raises(ValueError, match="n = 0"):
         natural_frequencies(P, 0, 0, n=0)
+
+
+def test_link_displacement_of_a_known_field():
+    """A global displacement field that is a small rigid rotation of each link about its start
+    joint (built by hand) gives transverse displacement s L dphi and zero axial, on every mesh
+    and for the reversed link L4; its slope is dphi and its curvature zero."""
+    for epl in [(1, 2, 2, 1), (3, 3, 5, 2)]:
+        m = build_model(P, elements_per_link=epl, tie_crank_roots=False)
+        th1, th4 = 0.7, 2.2
+        st = rigid_state(P, th1, 1.0, 0.0, th4, 0.0, 0.0)  # rotation of crank AB only
+        u = m.rigid_velocity(st) * 1e-3  # displacement of a 1 mrad crank rotation
+        for s in (0.0, 0.3, 0.5, 1.0):
+            ax, tr = m.link_displacement(u, th1, th4, "L1", s)
+            assert ax == pytest.approx(0.0, abs=1e-15) and tr == pytest.approx(1e-3 * s * P.L1, rel=1e-12)
+            _, slope = m.link_displacement(u, th1, th4, "L1", s, derivative=1)
+            _, curv = m.link_displacement(u, th1, th4, "L1", s, derivative=2)
+            assert slope == pytest.approx(1e-3, rel=1e-12) and curv == pytest.approx(0.0, abs=1e-12)
+        # crank ED rotating alone: L4 runs E -> D kinematically, the elements run D -> E
+        st4 = rigid_state(P, th1, 0.0, 0.0, th4, 1.0, 0.0)
+        u4 = m.rigid_velocity(st4) * 1e-3
+        for s in (0.0, 0.25, 1.0):
+            ax, tr = m.link_displacement(u4, th1, th4, "L4", s)
+            assert ax == pytest.approx(0.0, abs=1e-15) and tr == pytest.approx(1e-3 * s * P.L4, rel=1e-12)
+            _, slope = m.link_displacement(u4, th1, th4, "L4", s, derivative=1)
+            assert slope == pytest.approx(1e-3, rel=1e-12)
+    with pytest.raises(ValueError, match="s = 1.5"):
+        m.link_displacement(u, th1, th4, "L2", 1.5)

@@ -41,7 +41,7 @@ import tomllib
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .elements import beam_element, motor_element
+from .elements import beam_element, motor_element, shape_functions
 from .kinematics import LINKS, RigidState, link_angles
 from .params import DEFAULT_PARAMS_PATH, Params
 
@@ -61,6 +61,7 @@ PAPER_ELEMENTS_PER_LINK = (1, 2, 2, 1)
 #: (link, first joint, last joint) in the direction of the elements (Figure 5, (A.12)).
 CHAIN = (("L1", "A", "B"), ("L2", "B", "C"), ("L3", "C", "D"), ("L4", "D", "E"))
 _GROUND = {"A": 1, "E": 2}  # crank root -> motor number
+_AXIAL = np.array([1.0, 0, 0, 0, 1.0, 0, 0, 0])
 
 
 @dataclass(frozen=True)
@@ -207,6 +208,48 @@ class Model:
         one derivative lower).  With unit crank speeds it is the mechanism's rigid-body mode:
         the displacement pattern of a small crank rotation."""
         return self._rigid_field(state, 1)
+
+    # --- elastic displacement fields --------------------------------------------------
+    def element_displacements(self, u: ArrayLike, theta1: ArrayLike, theta4: ArrayLike, mode: int = 1) -> NDArray:
+        """Local DOFs [u1, w1, w1', w1'', u2, w2, w2', w2''] of every element.
+
+        ``u`` has shape ``(..., n)`` and broadcasts with the crank angles (rad); the result has
+        shape ``(..., n_elements, 8)`` (m, rad, 1/m) in each element's own frame.
+        """
+        u = np.asarray(u, float)
+        angles = link_angles(self.params, theta1, theta4, mode)
+        padded = np.concatenate([u, np.zeros(u.shape[:-1] + (1,))], axis=-1)  # index -1 -> 0
+        out = []
+        for el, beta in zip(self.elements, self.element_angles(angles)):
+            R = self._rotations(np.asarray(beta))
+            out.append((R @ padded[..., list(el.dofs)][..., None])[..., 0])
+        return np.stack(out, axis=-2)
+
+    def link_displacement(
+        self, u: ArrayLike, theta1: ArrayLike, theta4: ArrayLike, link: str, s: float, derivative: int = 0, mode: int = 1
+    ) -> tuple[NDArray, NDArray]:
+        """Elastic (axial, transverse) displacement of the point at fraction ``s`` of a link.
+
+        ``s`` runs along the link's kinematic direction (:data:`fivebar.kinematics.LINKS`),
+        and the transverse direction is that direction's left normal.  ``derivative`` = 1, 2
+        gives d/dx, d^2/dx^2 along the link (the slope and curvature of the deflection).
+        Works for any mesh: the point is interpolated with the element's shape functions.
+        """
+        if not 0.0 <= s <= 1.0:
+            raise ValueError(f"s = {s!r} is not allowed: give a fraction of the link in [0, 1]")
+        q = self.element_displacements(u, theta1, theta4, mode)
+        sc = 1.0 - s if _reversed(link) else s
+        els = [i for i, el in enumerate(self.elements) if el.link == link]
+        i = next((k for k in els if self.elements[k].s0 <= sc <= self.elements[k].s1))
+        el = self.elements[i]
+        L_link = el.length * self.elements_per_link[int(link[1]) - 1]
+        N = shape_functions(np.array([(sc - el.s0) * L_link]), el.length, derivative)[0]
+        axial = q[..., i, :] @ (N * _AXIAL)
+        transverse = q[..., i, :] @ (N * (1 - _AXIAL))
+        if _reversed(link):  # element frame = link frame turned by pi, and d/dx = -d/dxbar
+            sign = (-1.0) ** (derivative + 1)
+            axial, transverse = sign * axial, sign * transverse
+        return axial, transverse
 
     # --- views -----------------------------------------------------------------------------
     def paper_numbering(self) -> list[tuple[int, str, int]]:
