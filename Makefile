@@ -44,8 +44,7 @@ book-clean: venv
 execute: venv
 	for nb in book/*.ipynb; do \
 	echo "executing $$nb"; \
-	$(BIN)/jupyter nbconvert --to notebook --execute --inplace \
-	    --ExecutePreprocessor.timeout=600 --ExecutePreprocessor.kernel_name=python3 "$$nb" || exit 1; \
+	$(BIN)/jupyter execute --inplace --timeout=600 "$$nb" || exit 1; \
 	done
 
 clean:
