@@ -1,0 +1,162 @@
+"""Tables of the book generated from data: the paper's misprints and the model's assumptions.
+
+The errata chapter renders two tables from the project's data files, so the book can never
+disagree with what the code uses:
+
+* :func:`errata_table` reads ``data/errata.toml``: one ``[[erratum]]`` per misprint or
+  inconsistency of the paper, with where it is, what is printed, how the book reads it, why,
+  and what verifies the reading.
+* :func:`assumptions_table` reads the ``[assumptions]`` of a parameter set (by default
+  ``data/wang2011.toml``): every number the paper does not give, with its value, unit, the
+  reason for it and the alternative the book shows beside it.
+
+No equation of the paper is implemented here.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from .params import DEFAULT_PARAMS_PATH, Params, load_params
+
+__all__ = [
+    "ERRATA_PATH",
+    "ERRATA_FIELDS",
+    "ReportError",
+    "errata_table",
+    "assumptions_table",
+    "format_value",
+    "data_files",
+]
+
+#: The errata file shipped with the project.
+ERRATA_PATH = Path(__file__).resolve().parents[2] / "data" / "errata.toml"
+
+#: Field of an ``[[erratum]]`` entry -> column of :func:`errata_table`.
+ERRATA_FIELDS = {
+    "id": "id",
+    "where": "where",
+    "printed": "printed",
+    "read_as": "read as",
+    "reason": "reason",
+    "verified_by": "verified by",
+}
+
+_ASSUMPTION_FIELDS = ("unit", "reason", "alternative")
+
+
+class ReportError(ValueError):
+    """A data file for a table is missing, malformed or has an incomplete entry."""
+
+
+def data_files() -> tuple[Path, Path]:
+    """The data files the tables are generated from: (errata, parameters)."""
+    return ERRATA_PATH, DEFAULT_PARAMS_PATH
+
+
+def errata_table(path: str | Path | None = None) -> pd.DataFrame:
+    """The paper's misprints, one row per ``[[erratum]]`` of the errata file.
+
+    ``df = errata_table()``; ``df = errata_table("my_errata.toml")``
+
+    Parameters
+    ----------
+    path
+        The errata file; ``None`` reads ``data/errata.toml``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``id``, ``where``, ``printed``, ``read as``, ``reason``, ``verified by``
+        (all text), in the order of the file.
+
+    Raises
+    ------
+    ReportError
+        If the file does not exist or is not valid TOML, if an entry lacks a field or has
+        an empty or non-text one (the message names the entry and the field), or if two
+        entries share an id.
+    """
+    path = Path(ERRATA_PATH if path is None else path)
+    try:
+        with open(path, "rb") as fh:
+            doc = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ReportError(f"errata file {str(path)!r} does not exist") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ReportError(f"errata file {str(path)!r} is not valid TOML: {exc}") from None
+    entries = doc.get("erratum")
+    if not isinstance(entries, list) or not entries:
+        raise ReportError(f"errata file {str(path)!r} has no [[erratum]] entries")
+    rows = []
+    seen: set[str] = set()
+    for k, entry in enumerate(entries, start=1):
+        label = f"[[erratum]] number {k} (id {entry.get('id', '?')!r}) of {str(path)!r}"
+        row = {}
+        for key, column in ERRATA_FIELDS.items():
+            value = entry.get(key)
+            if not isinstance(value, str) or not value.strip():
+                raise ReportError(
+                    f"{label}: field {key!r} = {value!r} is not allowed: it must be "
+                    "non-empty text"
+                )
+            row[column] = value.strip()
+        if row["id"] in seen:
+            raise ReportError(f"{label}: id {row['id']!r} is used twice")
+        seen.add(row["id"])
+        rows.append(row)
+    return pd.DataFrame(rows, columns=list(ERRATA_FIELDS.values()))
+
+
+def assumptions_table(params: Params | None = None) -> pd.DataFrame:
+    """The model's assumptions: the numbers the paper does not give.
+
+    ``df = assumptions_table()``; ``df = assumptions_table(load_params().replace(...))``
+
+    Parameters
+    ----------
+    params
+        The parameter set whose ``[assumptions]`` are listed (values as used, including
+        overrides); ``None`` loads ``data/wang2011.toml``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``key`` (the name in ``[assumptions]``), ``value`` (a number in the unit of
+        the ``unit`` column, or text), ``unit``, ``reason``, ``alternative``; in the order of
+        the parameter schema (:mod:`fivebar.params`).  An entry overridden without a reason shows an empty reason.
+    """
+    params = load_params() if params is None else params
+    rows = []
+    for dotted, value in params.values.items():
+        section, _, key = dotted.partition(".")
+        if section != "assumptions":
+            continue
+        meta = params.meta.get(dotted, {})
+        row: dict[str, Any] = {"key": key, "value": value}
+        for field in _ASSUMPTION_FIELDS:
+            row[field] = str(meta.get(field, "")).strip()
+        rows.append(row)
+    return pd.DataFrame(rows, columns=["key", "value", *_ASSUMPTION_FIELDS])
+
+
+def format_value(value: Any) -> str:
+    """A table cell as text: numbers to 4 significant digits, text unchanged.
+
+    >>> format_value(210.0e9), format_value(0.03), format_value(100), format_value("literal")
+    ('2.1e+11', '0.03', '100', 'literal')
+    """
+    if isinstance(value, bool):
+        return str(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isfinite(value) and value == int(value) and abs(value) < 1e6:
+            return str(int(value))
+        return f"{value:.4g}"
+    return str(value)

@@ -1,0 +1,103 @@
+"""Tests of fivebar.reporting: the errata and assumptions tables of the book.
+
+The reference is the data files themselves, read here independently with tomllib.
+"""
+
+import tomllib
+
+import pytest
+
+import fivebar
+from fivebar import reporting
+from fivebar.reporting import ReportError, assumptions_table, errata_table, format_value
+
+ERRATUM = """
+[[erratum]]
+id = "{id}"
+where = "(A.6)"
+printed = "p"
+read_as = "r"
+reason = "why"
+verified_by = "tests/test_x.py"
+"""
+
+
+def test_errata_table_is_the_file():
+    with open(reporting.ERRATA_PATH, "rb") as fh:
+        entries = tomllib.load(fh)["erratum"]
+    df = errata_table()
+    assert list(df.columns) == ["id", "where", "printed", "read as", "reason", "verified by"]
+    assert len(df) == len(entries)
+    assert list(df["id"]) == [e["id"] for e in entries]
+    assert list(df["read as"]) == [e["read_as"].strip() for e in entries]
+    assert list(df["verified by"]) == [e["verified_by"].strip() for e in entries]
+
+
+def test_errata_table_reads_another_file(tmp_path):
+    f = tmp_path / "e.toml"
+    f.write_text(ERRATUM.format(id="X1") + ERRATUM.format(id="X2"))
+    df = errata_table(f)
+    assert list(df["id"]) == ["X1", "X2"]
+    assert df.loc[0, "where"] == "(A.6)"
+
+
+@pytest.mark.parametrize("field", ["id", "where", "printed", "read_as", "reason", "verified_by"])
+def test_errata_entry_without_a_field_is_named(tmp_path, field):
+    lines = [ln for ln in ERRATUM.format(id="X1").splitlines() if not ln.startswith(field + " ")]
+    f = tmp_path / "e.toml"
+    f.write_text("\n".join(lines))
+    with pytest.raises(ReportError, match=rf"field '{field}'"):
+        errata_table(f)
+
+
+def test_errata_empty_field_and_duplicate_id_are_rejected(tmp_path):
+    f = tmp_path / "e.toml"
+    f.write_text(ERRATUM.format(id="X1").replace('reason = "why"', 'reason = "  "'))
+    with pytest.raises(ReportError, match="reason"):
+        errata_table(f)
+    f.write_text(ERRATUM.format(id="X1") * 2)
+    with pytest.raises(ReportError, match="used twice"):
+        errata_table(f)
+
+
+def test_errata_missing_or_broken_file(tmp_path):
+    with pytest.raises(ReportError, match="does not exist"):
+        errata_table(tmp_path / "none.toml")
+    f = tmp_path / "bad.toml"
+    f.write_text("[[erratum]\n")
+    with pytest.raises(ReportError, match="not valid TOML"):
+        errata_table(f)
+    f.write_text("title = 'no entries'\n")
+    with pytest.raises(ReportError, match="no \\[\\[erratum\\]\\]"):
+        errata_table(f)
+    assert issubclass(ReportError, ValueError)
+
+
+def test_assumptions_table_is_the_file():
+    with open(fivebar.DEFAULT_PARAMS_PATH, "rb") as fh:
+        assumptions = tomllib.load(fh)["assumptions"]
+    df = assumptions_table()
+    assert list(df.columns) == ["key", "value", "unit", "reason", "alternative"]
+    assert sorted(df["key"]) == sorted(assumptions)
+    for row in df.itertuples(index=False):
+        entry = assumptions[row.key]
+        assert row.value == entry["value"]
+        assert row.unit == entry["unit"]
+        assert row.reason == entry["reason"].strip()
+        assert row.alternative == entry["alternative"].strip()
+
+
+def test_assumptions_table_shows_overrides():
+    params = fivebar.load_params().replace(crank_speed_rpm=123.0)
+    df = assumptions_table(params).set_index("key")
+    assert df.loc["crank_speed_rpm", "value"] == 123.0
+    assert df.loc["crank_speed_rpm", "unit"] == "r/min"  # the provenance is kept
+
+
+@pytest.mark.parametrize(
+    "value, text",
+    [(210.0e9, "2.1e+11"), (0.03, "0.03"), (60.0, "60"), (10, "10"), (-1.5707963, "-1.571"),
+     (2.5e-7, "2.5e-07"), ("calibrated", "calibrated"), (True, "True")],
+)
+def test_format_value(value, text):
+    assert format_value(value) == text
