@@ -8,7 +8,7 @@ from fivebar import load_params
 from fivebar.assembly import build_model, paper_b_matrices
 from fivebar.elements import gauss_points, shape_functions
 from fivebar.kinematics import rigid_state
-from fivebar.modal import mean_modes, natural_frequencies
+from fivebar.modal import natural_frequencies
 
 P = load_params()
 ANGLES = [(0.0, 0.0), (1.1, -2.0), (2.5, 0.7), (-0.8, 3.0)]
@@ -154,17 +154,34 @@ def test_frozen_frequencies_converge_under_refinement(motors):
     assert err[1].max() < 1e-3 and err[0].max() < 2e-2
 
 
-def test_mean_modes_are_mass_normalised():
-    md = mean_modes(P, steps=12, n=5)
-    m = md.model
+def test_mean_frequencies_and_averaged_matrix_modes():
     from fivebar.kinematics import crank_laws
+    from fivebar.modal import averaged_matrix_modes, frequencies_along_cycle, mean_frequencies
 
+    fm = mean_frequencies(P, steps=12, n=4)
+    f = frequencies_along_cycle(P, np.arange(12) * np.pi / 6, n=4)
+    assert np.allclose(fm, f.mean(axis=0)) and np.all(f.min(0) <= fm) and np.all(fm <= f.max(0))
+    md = averaged_matrix_modes(P, steps=12, n=5, frame="corotating")
+    m = md.model
     t = np.arange(12) * P.period / 12
     th1, _, _, th4, _, _ = crank_laws(P, t)
     M, K = m.matrices(th1, th4)
-    Mb, Kb = M.mean(0), K.mean(0)
+    T = m.corotating_transform(th1, th4)
+    assert np.allclose(np.swapaxes(T, -1, -2) @ T, np.eye(m.n))  # orthogonal
+    Mb = (np.swapaxes(T, -1, -2) @ M @ T).mean(0)
+    Kb = (np.swapaxes(T, -1, -2) @ K @ T).mean(0)
     assert np.allclose(md.shapes.T @ Mb @ md.shapes, np.eye(5), atol=1e-9)
     assert np.allclose(md.shapes.T @ Kb @ md.shapes, np.diag(md.omega**2), rtol=1e-9, atol=1e-6)
+    # frozen at one configuration, the co-rotating frame changes nothing: same frequencies
+    M0, K0 = m.matrices(0.3, 0.9)
+    T0 = m.corotating_transform(0.3, 0.9)
+    import scipy.linalg
+
+    assert np.allclose(
+        scipy.linalg.eigh(T0.T @ K0 @ T0, T0.T @ M0 @ T0, eigvals_only=True),
+        scipy.linalg.eigh(K0, M0, eigvals_only=True),
+        rtol=1e-8,
+    )
 
 
 def test_bad_mesh_and_mode_count():

@@ -174,6 +174,28 @@ class Model:
         # R^T M R is symmetric only to round-off: make it exactly so
         return 0.5 * (M + np.swapaxes(M, -1, -2)), 0.5 * (K + np.swapaxes(K, -1, -2))
 
+    def corotating_transform(self, theta1: ArrayLike, theta4: ArrayLike, mode: int = 1) -> NDArray:
+        """T with u = T q~: translations of every node expressed in a frame that turns with it.
+
+        Interior nodes of a link turn with that link; the pins B, C, D turn with the link that
+        ends there in the chain (L1, L2, L3).  Slopes, curvatures and motor DOFs are unchanged.
+        In these coordinates M and K vary with the configuration only through the angles
+        between links, so their period means are meaningful (in the global frame they are
+        not: averaging smears each link's axial stiffness over every direction).
+        Shape ``(..., n, n)``; T is orthogonal.
+        """
+        angles = link_angles(self.params, theta1, theta4, mode)
+        shape = np.shape(angles["L1"])
+        T = np.zeros(shape + (self.n, self.n))
+        idx = np.arange(self.n)
+        T[..., idx, idx] = 1.0
+        for node, (ix, iy) in self.node_dofs.items():
+            link = node.split("[")[0] if "[" in node else {"B": "L1", "C": "L2", "D": "L3"}[node]
+            c, s = np.cos(angles[link]), np.sin(angles[link])
+            T[..., ix, ix], T[..., ix, iy] = c, -s
+            T[..., iy, ix], T[..., iy, iy] = s, c
+        return T
+
     # --- rigid-body fields --------------------------------------------------------------
     def _rigid_field(self, state: RigidState, order: int) -> NDArray:
         shape = np.shape(state.angle["L1"])
@@ -250,6 +272,29 @@ class Model:
             sign = (-1.0) ** (derivative + 1)
             axial, transverse = sign * axial, sign * transverse
         return axial, transverse
+
+    def deformed_shape(
+        self, u: ArrayLike, theta1: float, theta4: float, scale: float = 1.0, points: int = 41, mode: int = 1
+    ) -> dict[str, NDArray]:
+        """Points of the deformed links at one configuration, for drawing.
+
+        Returns ``{"L1": (points, 2), ...}``: the rigid position of ``points`` equally spaced
+        points of each link plus ``scale`` times their elastic displacement (m).
+        """
+        from .kinematics import positions
+
+        P = positions(self.params, theta1, theta4, mode)
+        out = {}
+        for link, (a, b) in LINKS.items():
+            d = P[b] - P[a]
+            e = d / np.linalg.norm(d)
+            n = np.array([-e[1], e[0]])
+            pts = []
+            for s in np.linspace(0.0, 1.0, points):
+                ax, tr = self.link_displacement(u, theta1, theta4, link, s, mode=mode)
+                pts.append(P[a] + s * d + scale * (ax * e + tr * n))
+            out[link] = np.array(pts)
+        return out
 
     # --- views -----------------------------------------------------------------------------
     def paper_numbering(self) -> list[tuple[int, str, int]]:

@@ -7,9 +7,9 @@ symmetric eigenproblem
 
     \mathbf K \boldsymbol\phi = \omega^2 \mathbf M \boldsymbol\phi ,
 
-whose roots change as the linkage moves.  The modal transformation (3.1)-(3.3) uses the modes
-of the *mean* system: M and K averaged over one period of the motion (the paper's "instantaneous
-natural frequency mean"); :func:`mean_modes` gives them.
+whose roots change as the linkage moves.  The modal transformation (3.1)-(3.3) uses the paper's
+"instantaneous natural frequency mean", :func:`mean_frequencies`.  Averaging the matrices
+instead (:func:`averaged_matrix_modes`) is shown in the book to fail for rotating links.
 """
 
 from __future__ import annotations
@@ -24,7 +24,14 @@ from .assembly import Model, build_model
 from .kinematics import crank_laws
 from .params import Params
 
-__all__ = ["Modes", "modes", "natural_frequencies", "frequencies_along_cycle", "mean_modes"]
+__all__ = [
+    "Modes",
+    "modes",
+    "natural_frequencies",
+    "frequencies_along_cycle",
+    "mean_frequencies",
+    "averaged_matrix_modes",
+]
 
 
 @dataclass(frozen=True)
@@ -110,28 +117,53 @@ def frequencies_along_cycle(
     return np.array([_eig(Mi, Ki, n)[0] for Mi, Ki in zip(M, K)])
 
 
-def mean_modes(
+def mean_frequencies(
+    params: Params,
+    steps: int | None = None,
+    n: int = 6,
+    motors: bool = True,
+    elements_per_link: tuple[int, int, int, int] | None = None,
+) -> NDArray:
+    """The paper's "instantaneous natural frequency mean" (3.3): the period mean (Hz) of the
+    ``n`` lowest instantaneous natural frequencies, mode by mode (sorted by frequency), over
+    ``steps`` equally spaced instants of one period (default the parameters' S)."""
+    S = params.steps_per_period if steps is None else int(steps)
+    if S < 1:
+        raise ValueError(f"steps = {steps!r} is not allowed: give a positive integer")
+    phi = np.arange(S) * 2.0 * np.pi / S
+    return frequencies_along_cycle(params, phi, n, motors, elements_per_link).mean(axis=0)
+
+
+def averaged_matrix_modes(
     params: Params,
     steps: int | None = None,
     n: int | None = None,
     motors: bool = True,
     elements_per_link: tuple[int, int, int, int] | None = None,
+    frame: str = "global",
 ) -> Modes:
-    """Modes of the period-mean system (M and K averaged over one period of the motion).
+    """Modes of the system whose M and K are the period means of M(t) and K(t).
 
-    Parameters
-    ----------
-    steps
-        Number of equally spaced instants over the period (default the parameters' S).
-    n
-        Number of modes (default all).
+    This is the other possible reading of the "mean system" of (3.1)-(3.3).  The book shows
+    that it is not a useful one for this linkage: averaged in the global frame
+    (``frame="global"``), each link's axial stiffness is smeared over every direction the link
+    takes; in co-rotating nodal coordinates (``frame="corotating"``, see
+    :meth:`Model.corotating_transform`) the pins still join links whose relative angle swings
+    by tens of degrees.  Either way the frequencies come out far above every instantaneous
+    one.  Use :func:`mean_frequencies` for the paper's frequency means.
     """
     S = params.steps_per_period if steps is None else int(steps)
     if S < 1:
         raise ValueError(f"steps = {steps!r} is not allowed: give a positive integer")
+    if frame not in ("corotating", "global"):
+        raise ValueError(f"frame = {frame!r} is not allowed: use 'corotating' or 'global'")
     t = np.arange(S) * params.period / S
     th1, _, _, th4, _, _ = crank_laws(params, t)
     m = build_model(params, elements_per_link=elements_per_link, motors=motors)
     M, K = m.matrices(th1, th4)
+    if frame == "corotating":
+        T = m.corotating_transform(th1, th4)
+        Tt = np.swapaxes(T, -1, -2)
+        M, K = Tt @ M @ T, Tt @ K @ T
     f, V = _eig(M.mean(axis=0), K.mean(axis=0), n)
     return Modes(f, V, m)
