@@ -1,0 +1,89 @@
+"""Geometric nonlinearity: force and tangent against finite differences of the energy, and the
+energy against an independent quadrature of (EA/2) int (V' + W'^2/2)^2 - linear part."""
+
+import numpy as np
+import pytest
+
+from fivebar import load_params
+from fivebar.assembly import build_model
+from fivebar.elements import shape_functions
+from fivebar.nonlinear import NonlinearForce, element_energy, element_force
+
+P = load_params()
+rng = np.random.default_rng(7)
+
+
+def test_element_energy_against_trapezoid_quadrature():
+    L, EA = 0.2, P.E * P.A
+    q = rng.normal(size=8) * np.array([1e-4, 1e-3, 1e-2, 1e-1, 1e-4, 1e-3, 1e-2, 1e-1])
+    x = np.linspace(0.0, L, 20001)
+    N1 = shape_functions(x, L, derivative=1)
+    Vp = N1[:, [0, 4]] @ q[[0, 4]]
+    Wp = N1[:, [1, 2, 3, 5, 6, 7]] @ q[[1, 2, 3, 5, 6, 7]]
+    full = 0.5 * EA * np.trapezoid((Vp + 0.5 * Wp**2) ** 2, x)
+    linear = 0.5 * EA * np.trapezoid(Vp**2, x)
+    assert element_energy(q, L, EA) == pytest.approx(full - linear, rel=1e-6)
+
+
+def test_element_force_and_tangent_against_finite_differences():
+    L, EA = 0.2, P.E * P.A
+    q = rng.normal(size=8) * 1e-3
+    f, K = element_force(q, L, EA)
+    h = 1e-7
+    for i in range(8):
+        dq = np.zeros(8)
+        dq[i] = h
+        fd = (element_energy(q + dq, L, EA) - element_energy(q - dq, L, EA)) / (2 * h)
+        assert f[i] == pytest.approx(fd, rel=1e-5, abs=1e-9 * np.abs(f).max())
+        fp, _ = element_force(q + dq, L, EA)
+        fm, _ = element_force(q - dq, L, EA)
+        assert np.allclose(K[:, i], (fp - fm) / (2 * h), rtol=1e-5, atol=1e-6 * np.abs(K).max())
+    assert np.allclose(K, K.T)
+
+
+def test_nonlinear_force_is_cubic_and_quadratic():
+    """For a pure transverse field the transverse force is cubic in its amplitude and the axial
+    force quadratic; adding an axial stretch adds a force bilinear in stretch and slope."""
+    L, EA = 0.4, P.E * P.A
+    qw = np.array([0, 1e-3, 2e-3, 0, 0, -1e-3, 1e-3, 0.0])
+    f1, _ = element_force(qw, L, EA)
+    f2, _ = element_force(2 * qw, L, EA)
+    tr = [1, 2, 3, 5, 6, 7]
+    assert np.allclose(f2[tr], 8 * f1[tr]) and np.allclose(f2[[0, 4]], 4 * f1[[0, 4]])
+    assert f1[0] == -f1[4] and f1[4] > 0  # dPi/du2 > 0: stretching a deflected element costs more energy
+    qa = qw + np.array([0, 0, 0, 0, 1e-5, 0, 0, 0])
+    fa = element_force(qa, L, EA)[0] - element_force(qw, L, EA)[0]
+    fb = element_force(2 * qa, L, EA)[0] - element_force(2 * qw, L, EA)[0]
+    assert np.allclose(fb, 4 * fa)
+
+
+def test_assembled_force_against_finite_differences_of_assembled_energy():
+    m = build_model(P, elements_per_link=(1, 2, 3, 2))
+    nl = NonlinearForce(m)
+    u = rng.normal(size=m.n) * 1e-3
+    th1, th4 = 0.8, -2.1
+    f, K = nl(u, th1, th4)
+    h = 1e-7
+    for i in rng.choice(m.n, size=10, replace=False):
+        du = np.zeros(m.n)
+        du[i] = h
+        fd = (nl.energy(u + du, th1, th4) - nl.energy(u - du, th1, th4)) / (2 * h)
+        assert f[i] == pytest.approx(fd, rel=1e-5, abs=1e-8 * np.abs(f).max())
+        col = (nl(u + du, th1, th4)[0] - nl(u - du, th1, th4)[0]) / (2 * h)
+        assert np.allclose(K[:, i], col, rtol=1e-5, atol=1e-6 * np.abs(K).max())
+
+
+def test_rigid_rotation_of_a_straight_element_has_the_exact_strain():
+    """A straight element turned by phi (finite) has u = L(cos phi - 1), w = L sin phi at node 2
+    and slope... the nonlinear (von Karman) strain of the linear field is sin(phi)^2/2 + cos - 1,
+    small compared with phi^2/2: the quadratic part cancels to O(phi^4)."""
+    L, EA = 0.4, P.E * P.A
+    phi = 1e-2
+    q = np.array([0, 0, np.tan(phi), 0, L * (np.cos(phi) - 1), L * np.sin(phi), np.tan(phi), 0])
+    q[2] = q[6] = np.sin(phi)  # w = x sin(phi) along the element
+    Vp = np.cos(phi) - 1
+    Wp = np.sin(phi)
+    eps = Vp + 0.5 * Wp**2
+    assert abs(eps) < phi**4
+    total = element_energy(q, L, EA) + 0.5 * EA * Vp**2 * L
+    assert total == pytest.approx(0.5 * EA * eps**2 * L, rel=1e-9)
