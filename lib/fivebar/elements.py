@@ -345,10 +345,11 @@ def bending_frequencies(
     rotary_inertia: bool = False,
     modes: int = 3,
 ) -> np.ndarray:
-    """Lowest bending circular frequencies of a uniform beam of ``n`` elements.
+    r"""Lowest bending circular frequencies of a uniform beam of ``n`` elements.
 
     The beam of :func:`assemble_line` with its axial DOFs left out and the supports imposed by
-    deleting DOFs.
+    deleting DOFs; every support offered removes the rigid motions, so the reduced stiffness
+    is positive definite and the eigenproblem is solved for the largest :math:`1/\omega^2`.
 
     Parameters
     ----------
@@ -377,9 +378,12 @@ def bending_frequencies(
         raise ValueError(
             f"modes = {modes!r} is not allowed: it must be an integer in [1, {len(keep)}]"
         )
-    lam = scipy.linalg.eigh(K[np.ix_(keep, keep)], M[np.ix_(keep, keep)], eigvals_only=True,
-                            subset_by_index=[0, modes - 1])
-    return np.sqrt(lam)
+    # the largest eigenvalues 1/omega^2 of (M, K): accurate to rounding relative to themselves,
+    # whereas the smallest of (K, M) carry the rounding error of the stiffest (curvature) modes
+    N = len(keep)
+    mu = scipy.linalg.eigh(M[np.ix_(keep, keep)], K[np.ix_(keep, keep)], eigvals_only=True,
+                           subset_by_index=[N - modes, N - 1])
+    return 1.0 / np.sqrt(mu[::-1])
 
 
 # --- motor element (A.1)-(A.4) ---------------------------------------------------------------
