@@ -200,5 +200,7 @@ def draw_linkage(
                 f"$L_{sub}$", mid, xytext=tuple((20 if name == "L5" else 12) * n), textcoords="offset points", ha="center", va="center",
                 color=LINK_COLORS[name] if color is None else color,
             )
+    if labels:  # the labels lie outside the joints' bounding box, leave room for them
+        ax.margins(0.1)
     ax.set_aspect("equal")
     return out
