@@ -44,12 +44,11 @@ def _quad(f, n=4096):
 def _coenergy(params, motor, field, x, y, t, n=4096):
     """W' = (R L / 2) int mu0 F^2 / (sigma - x cos a - y sin a) da, not expanded."""
     sigma = motor.k_mu * motor.delta0
-    return (
-        0.5
-        * motor.R01
-        * motor.L01
-        * _quad(lambda a: motor.mu0 * _F(params, motor, field, a, t) ** 2 / (sigma - x * np.cos(a) - y * np.sin(a)), n)
-    )
+    def integrand(a):
+        gap = sigma - x * np.cos(a) - y * np.sin(a)
+        return motor.mu0 * _F(params, motor, field, a, t) ** 2 / gap
+
+    return 0.5 * motor.R01 * motor.L01 * _quad(integrand, n)
 
 
 # --- speeds (2.1) ----------------------------------------------------------------------------
@@ -90,7 +89,8 @@ def test_literal_mmf_numbers_by_hand():
     F = em.mmf_components(PARAMS.motor1, "literal")
     # 0.9 * 924 * 0.92 * 3.58 / 1 = 2738.96 A; a_e = 26/220
     assert F["F_+s"] == pytest.approx(0.5 * (1 + 26 / 220) * 2738.95776)
-    assert F["F_-r"] == pytest.approx(0.5 * 594.35 / math.hypot(27.24 / 1.9287, 0.0196) * (1 - 26 / 220) * 2738.95776)
+    ratio = 594.35 / math.hypot(27.24 / 1.9287, 0.0196)
+    assert F["F_-r"] == pytest.approx(0.5 * ratio * (1 - 26 / 220) * 2738.95776)
     # the nominal flux density mu0 F_m / (k_mu delta0): about 11 T (errata E9)
     B = MU0 * 2738.95776 / (1.2 * 0.25e-3)
     assert em.magnetizing_mmf(PARAMS.motor1) == pytest.approx(2738.95776)
@@ -141,7 +141,9 @@ CASES = [
 
 
 @pytest.mark.parametrize("i, changes", CASES)
-@pytest.mark.parametrize("field, form", [("calibrated", "derived"), ("literal", "printed"), ("literal", "derived")])
+@pytest.mark.parametrize(
+    "field, form", [("calibrated", "derived"), ("literal", "printed"), ("literal", "derived")]
+)
 def test_stiffness_and_force_equal_quadrature_of_A4(i, changes, field, form):
     q = PARAMS.replace(**changes)
     m = _motor(q, i)
@@ -241,10 +243,9 @@ def test_single_wave_p1_has_a_rotating_anisotropy():
     w = 2 * math.pi * 50
     t = np.linspace(0, 0.02, 29)
     K = em.electromagnetic_stiffness(m, q, t, field="literal", form="derived")[:, :2, :2]
-    ref = -c * (
-        math.pi * np.eye(2)
-        + 0.5 * math.pi * np.array([[np.cos(2 * w * t), np.sin(2 * w * t)], [np.sin(2 * w * t), -np.cos(2 * w * t)]]).transpose(2, 0, 1)
-    )
+    cos, sin = np.cos(2 * w * t), np.sin(2 * w * t)
+    turning = np.array([[cos, sin], [sin, -cos]]).transpose(2, 0, 1)
+    ref = -c * (math.pi * np.eye(2) + 0.5 * math.pi * turning)
     assert np.allclose(K, ref, rtol=1e-10, atol=1e-10 * c)
     # mean isotropic, eigenvalues constant: -c pi (1 +- 1/2)
     ev = np.linalg.eigvalsh(K)
@@ -302,7 +303,10 @@ def test_eccentricity_vector():
     e = em.eccentricity_vector(m, PARAMS, t)
     a = PARAMS.static_eccentricity_angle
     beta = (1 - m.s) * 2 * math.pi * 50 / m.p * t
-    ref = np.stack([0.75e-3 * math.cos(a) + 0.5e-3 * np.cos(beta), 0.75e-3 * math.sin(a) + 0.5e-3 * np.sin(beta)], -1)
+    ref = np.stack(
+        [0.75e-3 * math.cos(a) + 0.5e-3 * np.cos(beta), 0.75e-3 * math.sin(a) + 0.5e-3 * np.sin(beta)],
+        -1,
+    )
     assert np.allclose(e[:, :2], ref) and np.all(e[:, 2:] == 0)
     # printed eccentricity exceeds the gap (errata E15)
     assert m.e0 > m.delta0 and m.eps0 > m.delta0

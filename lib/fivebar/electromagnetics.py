@@ -135,10 +135,6 @@ __all__ = [
     "field_frequencies",
 ]
 
-Variant = Literal["calibrated", "literal"]
-Field = Literal["calibrated", "literal"]
-Form = Literal["derived", "printed"]
-
 #: variant -> (field, form); see the module docstring.
 VARIANTS: dict[str, tuple[str, str]] = {
     "calibrated": ("calibrated", "derived"),
@@ -177,7 +173,9 @@ def _times(t: ArrayLike, name: str = "t") -> NDArray[np.float64]:
     try:
         arr = np.asarray(t, dtype=float)
     except (TypeError, ValueError):
-        raise ElectromagneticsError(f"{name} = {t!r} is not allowed: it must be real numbers (s)") from None
+        raise ElectromagneticsError(
+            f"{name} = {t!r} is not allowed: it must be real numbers (s)"
+        ) from None
     if not np.all(np.isfinite(arr)):
         bad = arr[~np.isfinite(arr)].ravel()[0]
         raise ElectromagneticsError(f"{name} contains {bad!r}: times must be finite (s)")
@@ -188,7 +186,9 @@ def _real(name: str, value: ArrayLike, unit: str) -> NDArray[np.float64]:
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ElectromagneticsError(f"{name} = {value!r} is not allowed: it must be real numbers ({unit})") from None
+        raise ElectromagneticsError(
+            f"{name} = {value!r} is not allowed: it must be real numbers ({unit})"
+        ) from None
     if not np.all(np.isfinite(arr)):
         bad = arr[~np.isfinite(arr)].ravel()[0]
         raise ElectromagneticsError(f"{name} contains {bad!r}: it must be finite ({unit})")
@@ -250,7 +250,9 @@ def rotor_angle(motor: Motor, params: Params, t: ArrayLike) -> NDArray[np.float6
 
 
 def supply_frequency_for_speed(motor: Motor, speed: float) -> float:
-    r"""Supply frequency at which the rotor turns at ``speed``: :math:`f = p\,\Omega / (2\pi (1 - s))`.
+    r"""Supply frequency at which the rotor turns at ``speed`` (Hz).
+
+    :math:`f = p\,\Omega / (2\pi (1 - s))`, the inverse of :func:`rotor_speed`.
 
     With the crank clamped to the shaft (errata E6) the rotor turns with the crank; this is
     the supply frequency consistent with a crank speed (errata E19).
@@ -269,7 +271,9 @@ def supply_frequency_for_speed(motor: Motor, speed: float) -> float:
     """
     v = float(_real("speed", speed, "rad/s"))
     if v <= 0:
-        raise ElectromagneticsError(f"speed = {speed!r} is not allowed: it must be positive (rad/s)")
+        raise ElectromagneticsError(
+            f"speed = {speed!r} is not allowed: it must be positive (rad/s)"
+        )
     return motor.p * v / (2.0 * math.pi * (1.0 - motor.s))
 
 
@@ -302,7 +306,9 @@ def magnetizing_mmf(motor: Motor) -> float:
 
 
 def mmf_components(
-    motor: Motor, variant: Field = "calibrated", gap_flux_density: float | None = None
+    motor: Motor,
+    variant: Literal["calibrated", "literal"] = "calibrated",
+    gap_flux_density: float | None = None,
 ) -> dict[str, float]:
     r"""Amplitudes of the four MMF waves, eqs. (A.9)-(A.10) with E7 (A).
 
@@ -447,7 +453,8 @@ def gap_flux_density(
 
     Parameters and shapes as in :func:`mmf_wave`.
     """
-    return motor.mu0 * mmf_wave(motor, params, alpha, t, variant, field=field) / effective_gap(motor)
+    F = mmf_wave(motor, params, alpha, t, variant, field=field)
+    return motor.mu0 * F / effective_gap(motor)
 
 
 def peak_flux_density(
@@ -470,7 +477,7 @@ def _C(motor: Motor, params: Params, field: str, t: NDArray) -> NDArray[np.compl
 
 
 def _integrals(motor: Motor, C: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-    r"""Closed forms of :math:`\int F^2`, :math:`\int F^2\cos 2\alpha`, :math:`\int F^2 \sin 2\alpha`."""
+    r"""Closed forms of the integrals of F^2, F^2 cos 2 alpha and F^2 sin 2 alpha over a turn."""
     I0 = math.pi * np.abs(C) ** 2
     if motor.p == 1:
         C2 = 0.5 * math.pi * C**2
@@ -573,7 +580,9 @@ def stiffness_harmonics(
     field: str | None = None,
     form: str | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    r"""Exact Fourier form :math:`\bar K_{12}(t) = K_0 + K_c\cos 2\omega_e t + K_s \sin 2\omega_e t`.
+    r"""Exact Fourier form of the electromagnetic stiffness.
+
+    :math:`\bar K_{12}(t) = K_0 + K_c\cos 2\omega_e t + K_s \sin 2\omega_e t`.
 
     ``K0, Kc, Ks = stiffness_harmonics(params.motor2, params)``
 
@@ -637,7 +646,9 @@ def unbalanced_magnetic_pull(
     """
     f, _ = _resolve(params, variant, field, None)
     if isinstance(n_alpha, bool) or not isinstance(n_alpha, (int, np.integer)) or n_alpha < 8:
-        raise ElectromagneticsError(f"n_alpha = {n_alpha!r} is not allowed: it must be an integer >= 8")
+        raise ElectromagneticsError(
+            f"n_alpha = {n_alpha!r} is not allowed: it must be an integer >= 8"
+        )
     xx, yy, tt = np.broadcast_arrays(_real("x", x, "m"), _real("y", y, "m"), _times(t))
     sigma = effective_gap(motor)
     e = np.hypot(xx, yy)
@@ -701,7 +712,8 @@ def net_rotor_stiffness(
     from .elements import motor_element  # the shaft stiffness belongs to the elements module
 
     _, K11 = motor_element(motor)
-    K = K11[:2, :2] + electromagnetic_stiffness(motor, params, t, variant, field=field, form=form)[..., :2, :2]
+    K12 = electromagnetic_stiffness(motor, params, t, variant, field=field, form=form)
+    K = K11[:2, :2] + K12[..., :2, :2]
     return np.linalg.eigvalsh(K)
 
 
@@ -729,7 +741,10 @@ def field_frequencies(motor: Motor, params: Params) -> dict[str, object]:
     ecc: tuple[float, ...] = (0.0, Om) if motor.eps0 > 0 else (0.0,)
     if params.eccentricity_scale == 0:
         ecc = ()
-    pull = sorted({abs(a + b) for a in stiff for b in ecc} | {abs(a - b) for a in stiff for b in ecc})
+    pull = sorted(
+        {abs(a + b) for a in stiff for b in ecc}
+        | {abs(a - b) for a in stiff for b in ecc}
+    )
     return {
         "electrical": we,
         "field": w0,
