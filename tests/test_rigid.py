@@ -265,3 +265,30 @@ def test_bad_input():
         mass_matrix(P.replace(L2=0.15, L3=0.15), 0.0, 0.0)
     with pytest.raises(ValueError, match="assembly mode 2"):
         mass_matrix(P, 0.0, 0.0, mode=2)
+
+
+@pytest.mark.parametrize("mesh", [None, (2, 3, 3, 1)], ids=["paper mesh", "refined"])
+def test_mass_matrix_against_the_finite_element_mass(mesh):
+    """A second method: the consistent FE mass of the assembly (quintic Hermite beams, lumped
+    masses, motor elements) projected on the rigid-body velocity fields of unit crank speeds.
+    The shape functions reproduce rigid motion exactly, so with the rotary-inertia term off
+    the projection equals M of the links and lumped masses, plus a constant diagonal: the
+    motor elements' torsional shaft inertia (their torsion shapes vanish at the rotor, so J0
+    does not enter the FE model)."""
+    from fivebar.assembly import build_model
+
+    q = P.replace(rotary_inertia=0)
+    model = build_model(q, elements_per_link=mesh)
+    th = np.random.default_rng(3).uniform(0, 2 * np.pi, (7, 2))
+    M_fe, _ = model.matrices(th[:, 0], th[:, 1])
+    V = np.stack(
+        [model.rigid_velocity(rigid_state(q, th[:, 0], w1, 0.0, th[:, 1], w4, 0.0)) for w1, w4 in ((1, 0), (0, 1))], -1
+    )
+    M_proj = np.einsum("...ni,...nm,...mj->...ij", V, M_fe, V)
+    links_only = inertia_model(q).replace(J1=0.0, J2=0.0)
+    D = M_proj - mass_matrix(q, th[:, 0], th[:, 1], inertia=links_only)
+    scale = np.abs(M_proj).max()
+    assert np.allclose(D[:, 0, 1], 0, atol=1e-13 * scale) and np.allclose(D[:, 1, 0], 0, atol=1e-13 * scale)
+    assert np.allclose(D, D[0], rtol=0, atol=1e-13 * scale)  # the same at every configuration
+    shaft = np.array([inertia_model(q, shaft_inertia=True).J1 - q.motor1.J0, inertia_model(q, shaft_inertia=True).J2 - q.motor2.J0])
+    assert np.all(D[0].diagonal() >= 0) and np.all(D[0].diagonal() <= shaft)

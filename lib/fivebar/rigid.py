@@ -39,6 +39,12 @@ about the normal to the plane): the cranks L1, L4 and the couplers L2, L3; the l
 :math:`J_0` (section 5), rigidly coupled to the cranks, on :math:`\theta_1` and
 :math:`\theta_4`, optionally with the polar inertia of the motor shafts.  Gravity
 (``params.gravity``, an assumption, zero by default) acts along :math:`-y`.
+
+The links' part of :math:`\mathbf M` equals the consistent finite-element mass of
+:mod:`fivebar.assembly` projected on the rigid-body velocity fields (tests/test_rigid.py).  The
+rotors differ: the torsion shape functions of the motor element (A.3) vanish at the rotor, so
+:math:`J_0` drives no elastic DOF there, while here it turns with its crank and resists every
+change of crank speed.  At constant crank speed it does no work and drops out of the torques.
 """
 
 from __future__ import annotations
