@@ -1,0 +1,989 @@
+r"""Implicit Newmark time integration of time-varying nonlinear structural systems.
+
+This module implements section 4 of the paper, eqs. (4.1)-(4.4), for a generic system
+
+.. math::
+
+    \mathbf M(t)\,\ddot{\mathbf u} + \mathbf C(t)\,\dot{\mathbf u} + \mathbf K(t)\,\mathbf u
+    + \mathbf f_{nl}(\mathbf u) = \mathbf F(t),
+
+with ``n`` degrees of freedom and dense matrices.  It knows nothing of the five-bar linkage:
+the model supplies ``M, C, K, F`` (and the nonlinear force) through a small protocol
+(:class:`SecondOrderSystem`, or the concrete :class:`System`).
+
+**The Newmark rule, (4.2)-(4.3).**  One period ``T`` is divided into ``S`` steps, (4.1)
+:math:`T = S\,\Delta t`.  With the paper's parameters :math:`(\varsigma, \vartheta)`, here
+``(gamma, beta)``,
+
+.. math::
+
+    \dot{\mathbf u}_{n+1} &= \dot{\mathbf u}_n
+        + \big((1-\gamma)\ddot{\mathbf u}_n + \gamma\,\ddot{\mathbf u}_{n+1}\big)\Delta t,
+        \qquad &(4.2)\\
+    \mathbf u_{n+1} &= \mathbf u_n + \dot{\mathbf u}_n\Delta t
+        + \big((\tfrac12-\beta)\ddot{\mathbf u}_n + \beta\,\ddot{\mathbf u}_{n+1}\big)\Delta t^2,
+        \qquad &(4.3)
+
+(the paper prints :math:`\vartheta\,\mathbf u_{t+\Delta t}` in (4.3); the acceleration
+:math:`\vartheta\,\ddot{\mathbf u}_{t+\Delta t}` is meant, errata E21).  The rule is
+unconditionally stable for :math:`\gamma \ge \tfrac12`,
+:math:`\beta \ge \tfrac14(\gamma+\tfrac12)^2`, the condition printed under (4.3).  The
+default is the average-acceleration (trapezoidal) rule :math:`\gamma=\tfrac12,\ \beta=\tfrac14`:
+second order, no numerical dissipation.  Section 5 prints
+:math:`(\varsigma,\vartheta)=(0.25, 0.5)`, outside that region; it is read as
+:math:`(0.5, 0.25)` (errata E2) and the printed pair raises :class:`UnstableParametersError`.
+
+**The equation at** :math:`t_{n+1}` **, (4.4).**  Writing
+:math:`\tilde{\mathbf u} = \mathbf u_n + \Delta t\,\dot{\mathbf u}_n
++ (\tfrac12-\beta)\Delta t^2\ddot{\mathbf u}_n` and
+:math:`\tilde{\mathbf v} = \dot{\mathbf u}_n + (1-\gamma)\Delta t\,\ddot{\mathbf u}_n`, (4.2)-(4.3)
+give :math:`\ddot{\mathbf u}_{n+1} = (\mathbf u_{n+1}-\tilde{\mathbf u})/(\beta\Delta t^2)` and
+:math:`\dot{\mathbf u}_{n+1} = \tilde{\mathbf v} + \gamma\Delta t\,\ddot{\mathbf u}_{n+1}`;
+substituted into the equation of motion at :math:`t_{n+1}` they leave the residual
+
+.. math::
+
+    \mathbf R(\mathbf u_{n+1}) = \mathbf M_{n+1}\ddot{\mathbf u}_{n+1}
+        + \mathbf C_{n+1}\dot{\mathbf u}_{n+1} + \mathbf K_{n+1}\mathbf u_{n+1}
+        + \mathbf f_{nl}(\mathbf u_{n+1}) - \mathbf F_{n+1} = \mathbf 0,
+
+solved by Newton-Raphson with the consistent tangent
+
+.. math::
+
+    \mathbf S = \frac{\mathbf M_{n+1}}{\beta\Delta t^2}
+        + \frac{\gamma\,\mathbf C_{n+1}}{\beta\Delta t} + \mathbf K_{n+1}
+        + \mathbf K_t(\mathbf u_{n+1}),
+    \qquad \mathbf K_t = \partial\mathbf f_{nl}/\partial\mathbf u .
+
+A linear system (no ``f_nl``) takes one solve per step.  Factorisations are reused when the
+tangent does not change (time-invariant linear systems, or periodic systems whose per-step
+matrices are precomputed in a :class:`PeriodicStepData`).
+
+**Numerical dissipation (optional).**  The generalised-alpha family of Chung & Hulbert (1993)
+evaluates the equation at intermediate points, with forces interpolated between
+:math:`t_n` and :math:`t_{n+1}`:
+
+.. math::
+
+    \bar{\mathbf M}\big((1-\alpha_m)\ddot{\mathbf u}_{n+1} + \alpha_m\ddot{\mathbf u}_n\big)
+    + (1-\alpha_f)\,\mathbf g_{n+1} + \alpha_f\,\mathbf g_n = \mathbf 0,
+    \qquad \mathbf g = \mathbf C\dot{\mathbf u} + \mathbf K\mathbf u
+        + \mathbf f_{nl}(\mathbf u) - \mathbf F,
+
+with :math:`\bar{\mathbf M} = (1-\alpha_f)\mathbf M_{n+1} + \alpha_f\mathbf M_n` (the mass at
+the time :math:`t_{n+1-\alpha_f}` where the forces are taken: with a time-varying mass,
+:math:`\mathbf M_{n+1}` there would make the scheme first order) and the tangent
+:math:`\mathbf S = (1-\alpha_m)\bar{\mathbf M}/(\beta\Delta t^2)
++ (1-\alpha_f)\big(\gamma\mathbf C_{n+1}/(\beta\Delta t) + \mathbf K_{n+1} + \mathbf K_t\big)`.
+:class:`Newmark` is :math:`\alpha_m=\alpha_f=0`; :class:`HHT` (Hilber, Hughes & Taylor 1977)
+is :math:`\alpha_m=0,\ \alpha_f=-\alpha`, :math:`\alpha\in[-\tfrac13,0]`,
+:math:`\gamma=\tfrac12-\alpha`, :math:`\beta=\tfrac14(1-\alpha)^2`, spectral radius
+:math:`(1+\alpha)/(1-\alpha)` at :math:`\omega\Delta t\to\infty`;
+:class:`GeneralizedAlpha` takes the spectral radius :math:`\rho_\infty\in[0,1]`:
+:math:`\alpha_m=(2\rho_\infty-1)/(\rho_\infty+1)`, :math:`\alpha_f=\rho_\infty/(\rho_\infty+1)`,
+:math:`\gamma=\tfrac12-\alpha_m+\alpha_f`, :math:`\beta=\tfrac14(1-\alpha_m+\alpha_f)^2`.
+All are second order and unconditionally stable for linear systems.
+
+**State and sensitivity.**  The integrator carries :math:`(\mathbf u,\dot{\mathbf u},
+\ddot{\mathbf u})`; the initial acceleration is by default the consistent one, from the
+equation of motion at :math:`t_0`.  For :class:`Newmark` the carried acceleration satisfies the
+equation at every step, so the one-step map is a map of :math:`(\mathbf u, \dot{\mathbf u})`
+(dimension :math:`2n`); the alpha schemes carry an *algorithmic* acceleration that is a genuine
+third state (dimension :math:`3n`): restarting them from the consistent acceleration every step
+would make them first order.  ``integrate(..., sensitivity=...)`` returns the product of the
+step Jacobians (the monodromy matrix over a period, for shooting), obtained by linearising each
+converged step: with the converged tangent :math:`\mathbf S`,
+
+.. math::
+
+    \delta\mathbf u_{n+1} = -\mathbf S^{-1}\Big((1-\alpha_m)\bar{\mathbf M}\,\delta\mathbf a^*
+      + (1-\alpha_f)\mathbf C_{n+1}\,\delta\mathbf v^*
+      + \alpha_m\bar{\mathbf M}\,\delta\ddot{\mathbf u}_n
+      + \alpha_f\big((\mathbf K_n+\mathbf K_{t,n})\,\delta\mathbf u_n
+      + \mathbf C_n\,\delta\dot{\mathbf u}_n\big)\Big),
+
+:math:`\delta\mathbf a^* = -\delta\tilde{\mathbf u}/(\beta\Delta t^2)`,
+:math:`\delta\mathbf v^* = \delta\tilde{\mathbf v} + \gamma\Delta t\,\delta\mathbf a^*`, then
+:math:`\delta\ddot{\mathbf u}_{n+1}
+= (\delta\mathbf u_{n+1}-\delta\tilde{\mathbf u})/(\beta\Delta t^2)`
+and :math:`\delta\dot{\mathbf u}_{n+1} = \delta\tilde{\mathbf v} + \gamma\Delta t\,
+\delta\ddot{\mathbf u}_{n+1}`.
+
+References: N. M. Newmark, J. Eng. Mech. Div. ASCE 85 (1959) 67-94; H. M. Hilber,
+T. J. R. Hughes, R. L. Taylor, Earthquake Eng. Struct. Dyn. 5 (1977) 283-292; J. Chung,
+G. M. Hulbert, J. Appl. Mech. 60 (1993) 371-375.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Literal, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.linalg.lapack import dgetrf, dgetrs
+
+try:  # optional: limit BLAS threads inside the time loop (see ``integrate(blas_threads=...)``)
+    from threadpoolctl import ThreadpoolController
+except ImportError:  # pragma: no cover - the pinned environment has it
+    ThreadpoolController = None
+
+__all__ = [
+    "GeneralizedAlpha",
+    "HHT",
+    "Newmark",
+    "NewmarkResult",
+    "NewtonConvergenceError",
+    "PeriodicStepData",
+    "Scheme",
+    "SecondOrderSystem",
+    "System",
+    "UnstableParametersError",
+    "UnstableParametersWarning",
+    "amplification_matrix",
+    "consistent_acceleration",
+    "integrate",
+]
+
+Array = NDArray[np.float64]
+
+
+# --- errors -----------------------------------------------------------------------------------
+class UnstableParametersError(ValueError):
+    """Integration parameters outside the unconditionally stable region."""
+
+
+class UnstableParametersWarning(RuntimeWarning):
+    """Parameters outside the unconditionally stable region were accepted on request."""
+
+
+class NewtonConvergenceError(RuntimeError):
+    """The Newton-Raphson iteration of one time step did not converge.
+
+    Attributes
+    ----------
+    t : float
+        Time at the end of the failed step (s).
+    residual : float
+        Norm of the last residual.
+    iterations : int
+        Newton iterations (linear solves) made in the step.
+    """
+
+    def __init__(self, message: str, t: float, residual: float, iterations: int) -> None:
+        super().__init__(message)
+        self.t = t
+        self.residual = residual
+        self.iterations = iterations
+
+
+# --- schemes ----------------------------------------------------------------------------------
+class Scheme:
+    """Base of the time-stepping schemes: the four generalised-alpha parameters.
+
+    Subclasses define ``gamma``, ``beta``, ``alpha_m`` and ``alpha_f`` (dimensionless).
+    """
+
+    gamma: float
+    beta: float
+    alpha_m: float
+    alpha_f: float
+
+    @property
+    def rho_infinity(self) -> float:
+        """Spectral radius of the one-step map as ``omega dt -> infinity``."""
+        raise NotImplementedError
+
+    @property
+    def is_newmark(self) -> bool:
+        """True if the scheme is plain Newmark (no alpha terms): the state is (u, v)."""
+        return self.alpha_m == 0.0 and self.alpha_f == 0.0
+
+
+@dataclass(frozen=True)
+class Newmark(Scheme):
+    """Newmark's rule (4.2)-(4.3) with ``(gamma, beta)`` = the paper's (varsigma, vartheta).
+
+    Parameters
+    ----------
+    gamma, beta : float
+        Newmark parameters (dimensionless).  Default 1/2, 1/4: average acceleration
+        (trapezoidal rule), the reading of the paper's section 5 (errata E2).
+    allow_unstable : bool
+        Accept parameters outside the unconditionally stable region ``gamma >= 1/2``,
+        ``beta >= (gamma + 1/2)^2 / 4`` with an :class:`UnstableParametersWarning` instead of
+        raising :class:`UnstableParametersError`.
+
+    Raises
+    ------
+    UnstableParametersError
+        Parameters outside the stable region (unless ``allow_unstable``), or ``beta <= 0``
+        (not an implicit scheme; never allowed), or a non-finite value.
+    """
+
+    gamma: float = 0.5
+    beta: float = 0.25
+    allow_unstable: bool = False
+    alpha_m: float = field(default=0.0, init=False)
+    alpha_f: float = field(default=0.0, init=False)
+
+    @property
+    def rho_infinity(self) -> float:
+        """Spectral radius as ``omega dt -> infinity``: roots of ``l^2 - tr l + det``.
+
+        With ``tr = (2 beta - gamma - 1/2) / beta`` and ``det = (1/2 + beta - gamma) / beta``
+        (the limit of the undamped one-step map on ``(v, a)``); 1 for the default rule.
+        """
+        g, b = self.gamma, self.beta
+        tr, det = (2 * b - g - 0.5) / b, (0.5 + b - g) / b
+        disc = tr * tr - 4 * det
+        if disc < 0:
+            return math.sqrt(det)
+        return max(abs(tr + math.sqrt(disc)), abs(tr - math.sqrt(disc))) / 2
+
+    def __post_init__(self) -> None:
+        g, b = self.gamma, self.beta
+        if not (math.isfinite(g) and math.isfinite(b)):
+            raise UnstableParametersError(
+                f"Newmark parameters must be finite, got gamma={g!r}, beta={b!r}")
+        if b <= 0.0:
+            raise UnstableParametersError(
+                f"Newmark beta={b!r} must be > 0 for the implicit scheme (beta = 0 is the explicit "
+                "central-difference rule, not implemented here); the default is beta = 0.25"
+            )
+        bmin = 0.25 * (g + 0.5) ** 2
+        if g < 0.5 or b < bmin * (1.0 - 1e-12):
+            msg = (
+                f"Newmark parameters gamma={g!r}, beta={b!r} are outside the unconditionally "
+                f"stable region gamma >= 0.5 and beta >= (gamma + 0.5)^2 / 4 (= {bmin:.6g} here), "
+                "the condition stated under (4.3) of the paper. Note: the paper's section 5 prints "
+                "(varsigma, vartheta) = (0.25, 0.5), which is such a case; the book reads it as "
+                "(0.5, 0.25), the average-acceleration rule (errata E2). "
+            )
+            if not self.allow_unstable:
+                raise UnstableParametersError(msg + "Pass allow_unstable=True to use them anyway.")
+            warnings.warn(msg + "Accepted because allow_unstable=True.", UnstableParametersWarning,
+                          stacklevel=3)
+
+
+@dataclass(frozen=True)
+class HHT(Scheme):
+    """Hilber-Hughes-Taylor alpha method: Newmark with numerical dissipation.
+
+    Parameters
+    ----------
+    alpha : float
+        In ``[-1/3, 0]`` (dimensionless); 0 is the average-acceleration rule.  Sets
+        ``gamma = (1 - 2 alpha) / 2`` and ``beta = (1 - alpha)^2 / 4``; the spectral radius as
+        ``omega dt -> infinity`` is ``(1 + alpha) / (1 - alpha)``.
+    """
+
+    alpha: float = -0.05
+
+    def __post_init__(self) -> None:
+        a = self.alpha
+        if not (math.isfinite(a) and -1.0 / 3.0 - 1e-15 <= a <= 0.0):
+            raise UnstableParametersError(
+                f"HHT alpha={a!r} must lie in [-1/3, 0] (the range where the scheme is second "
+                "order and unconditionally stable); alpha = 0 is the average-acceleration rule"
+            )
+
+    @property
+    def rho_infinity(self) -> float:
+        """Spectral radius as ``omega dt -> infinity``: ``(1 + alpha) / (1 - alpha)``."""
+        return (1.0 + self.alpha) / (1.0 - self.alpha)
+
+    @property
+    def gamma(self) -> float:  # type: ignore[override]
+        return 0.5 - self.alpha
+
+    @property
+    def beta(self) -> float:  # type: ignore[override]
+        return 0.25 * (1.0 - self.alpha) ** 2
+
+    @property
+    def alpha_m(self) -> float:  # type: ignore[override]
+        return 0.0
+
+    @property
+    def alpha_f(self) -> float:  # type: ignore[override]
+        return -self.alpha
+
+
+@dataclass(frozen=True)
+class GeneralizedAlpha(Scheme):
+    """Chung-Hulbert generalised-alpha method with prescribed high-frequency dissipation.
+
+    Parameters
+    ----------
+    rho_inf : float
+        Spectral radius of the one-step map as ``omega dt -> infinity``, in ``[0, 1]``
+        (dimensionless); 1 gives no dissipation (the average-acceleration rule's limit),
+        0 annihilates the highest modes in one step.
+    """
+
+    rho_inf: float = 0.8
+
+    def __post_init__(self) -> None:
+        r = self.rho_inf
+        if not (math.isfinite(r) and 0.0 <= r <= 1.0):
+            raise UnstableParametersError(
+                f"generalised-alpha rho_inf={r!r} must lie in [0, 1] (the spectral radius at "
+                "omega dt -> infinity; values above 1 are unstable)"
+            )
+
+    @property
+    def rho_infinity(self) -> float:
+        """Spectral radius as ``omega dt -> infinity``: ``rho_inf`` by construction."""
+        return float(self.rho_inf)
+
+    @property
+    def alpha_m(self) -> float:  # type: ignore[override]
+        return (2.0 * self.rho_inf - 1.0) / (self.rho_inf + 1.0)
+
+    @property
+    def alpha_f(self) -> float:  # type: ignore[override]
+        return self.rho_inf / (self.rho_inf + 1.0)
+
+    @property
+    def gamma(self) -> float:  # type: ignore[override]
+        return 0.5 - self.alpha_m + self.alpha_f
+
+    @property
+    def beta(self) -> float:  # type: ignore[override]
+        return 0.25 * (1.0 - self.alpha_m + self.alpha_f) ** 2
+
+
+def amplification_matrix(scheme: Scheme, omega_dt: float, zeta: float = 0.0) -> Array:
+    r"""One-step amplification matrix of a scheme for the free oscillator.
+
+    For :math:`\ddot u + 2\zeta\omega\dot u + \omega^2 u = 0` the scheme maps
+    :math:`x_n = (u_n,\ \Delta t\,\dot u_n,\ \Delta t^2\ddot u_n)` to :math:`x_{n+1} = A x_n`.
+    Its eigenvalues give the numerical damping and period error (for :class:`Newmark` one
+    eigenvalue is 0: the acceleration is slaved to (u, v)).
+
+    Parameters
+    ----------
+    scheme : Scheme
+        The time-stepping scheme.
+    omega_dt : float
+        :math:`\Omega = \omega\Delta t` (rad), >= 0.
+    zeta : float
+        Damping ratio (dimensionless), >= 0.
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+    """
+    W = float(omega_dt)
+    if not (math.isfinite(W) and W >= 0.0):
+        raise ValueError(f"omega_dt={omega_dt!r} must be finite and >= 0")
+    g, b, am, af = scheme.gamma, scheme.beta, scheme.alpha_m, scheme.alpha_f
+    c, k = 2.0 * zeta * W, W * W  # scaled damping and stiffness (dt = 1, m = 1)
+    # predictors as rows acting on x = (u, v, a) with dt = 1
+    P_u = np.array([1.0, 1.0, 0.5 - b])
+    P_v = np.array([0.0, 1.0, 1.0 - g])
+    # residual: (1-am) a1 + am a0 + (1-af)(c v1 + k u1) + af (c v0 + k u0) = 0,
+    # u1 = P_u x + b a1, v1 = P_v x + g a1
+    lhs = (1 - am) + (1 - af) * (c * g + k * b)
+    rhs = -(am * np.array([0.0, 0.0, 1.0]) + (1 - af) * (c * P_v + k * P_u)
+            + af * np.array([k, c, 0.0]))
+    a1 = rhs / lhs
+    return np.vstack([P_u + b * a1, P_v + g * a1, a1])
+
+
+# --- systems ----------------------------------------------------------------------------------
+@runtime_checkable
+class SecondOrderSystem(Protocol):
+    """What :func:`integrate` needs from a model.
+
+    Required methods: ``matrices(t) -> (M, C, K)``, each ``(n, n)`` (SI units of the model),
+    and ``force(t) -> F`` of shape ``(n,)``.  Optional members: ``nonlinear(u) -> (f_nl, K_t)``
+    (the internal nonlinear force, shape ``(n,)``, and its Jacobian ``d f_nl / d u``,
+    ``(n, n)``), absent or ``None`` for a linear system; ``time_invariant: bool`` (True if
+    ``M, C, K`` do not depend on ``t``, so one factorisation serves every step).
+    """
+
+    def matrices(self, t: float) -> tuple[Array, Array, Array]: ...
+
+    def force(self, t: float) -> Array: ...
+
+
+MatrixSpec = ArrayLike | Callable[[float], ArrayLike]
+
+
+class System:
+    """A concrete :class:`SecondOrderSystem` from arrays or functions of time.
+
+    Parameters
+    ----------
+    M, C, K : array_like (n, n) or callable ``t -> (n, n)``
+        Mass, damping and stiffness (SI).  Arrays are constant in time.
+    force : None, array_like (n,) or callable ``t -> (n,)``
+        External force ``F(t)``; None is zero.
+    nonlinear : None or callable ``u -> (f_nl, K_t)``
+        Internal nonlinear force and its tangent ``d f_nl / d u``; None for a linear system.
+    """
+
+    def __init__(
+        self,
+        M: MatrixSpec,
+        C: MatrixSpec,
+        K: MatrixSpec,
+        force: None | ArrayLike | Callable[[float], ArrayLike] = None,
+        nonlinear: None | Callable[[Array], tuple[Array, Array]] = None,
+    ) -> None:
+        self._mats: list[Any] = []
+        n = None
+        for name, X in (("M", M), ("C", C), ("K", K)):
+            if callable(X):
+                self._mats.append(X)
+            else:
+                A = np.array(X, dtype=float)
+                if A.ndim != 2 or A.shape[0] != A.shape[1]:
+                    raise ValueError(f"{name} must be a square matrix, got shape {A.shape}")
+                if n is not None and A.shape[0] != n:
+                    raise ValueError(f"{name} has shape {A.shape}, expected ({n}, {n})")
+                n = A.shape[0]
+                self._mats.append(A)
+        self.time_invariant = not any(callable(X) for X in self._mats)
+        if n is None:
+            n = np.shape(self._mats[0](0.0))[0]
+        self.n = int(n)
+        if force is None:
+            zero = np.zeros(self.n)
+            self._force: Callable[[float], Array] = lambda t: zero
+        elif callable(force):
+            self._force = lambda t: np.asarray(force(t), dtype=float)
+        else:
+            F = np.array(force, dtype=float)
+            if F.shape != (self.n,):
+                raise ValueError(f"force has shape {F.shape}, expected ({self.n},)")
+            self._force = lambda t: F
+        self.nonlinear = nonlinear
+
+    def matrices(self, t: float) -> tuple[Array, Array, Array]:
+        """``(M, C, K)`` at time ``t`` (s)."""
+        out = [X(t) if callable(X) else X for X in self._mats]
+        return tuple(np.asarray(X, dtype=float) for X in out)  # type: ignore[return-value]
+
+    def force(self, t: float) -> Array:
+        """External force ``F(t)``, shape ``(n,)``."""
+        return self._force(t)
+
+
+class PeriodicStepData:
+    """Matrices and forces of a periodic system at the ``S`` time points of one period.
+
+    Time point ``k`` is ``t0 + k * period / S``; point ``S`` equals point 0 (periodicity).
+    :func:`integrate` reads ``M, C, K, F`` from here instead of calling the system, and caches
+    the LU factorisation of each step's linear tangent (per scheme and step), so that later
+    periods cost only triangular solves.
+
+    Parameters
+    ----------
+    M, C, K : array_like, shape (S, n, n) or (n, n)
+        Per-step matrices (a 2-D array is the same at every step).
+    F : array_like, shape (S, n) or (n,)
+        Per-step external force.
+    t0 : float
+        Time of point 0 (s).
+    period : float
+        Period ``T = S dt`` (s), (4.1).
+    """
+
+    def __init__(self, M: ArrayLike, C: ArrayLike, K: ArrayLike, F: ArrayLike, t0: float,
+                 period: float) -> None:
+        arrs = [np.asarray(X, dtype=float) for X in (M, C, K)]
+        F = np.asarray(F, dtype=float)
+        S = next((X.shape[0] for X in arrs if X.ndim == 3), F.shape[0] if F.ndim == 2 else None)
+        if S is None:
+            raise ValueError(
+                "PeriodicStepData needs at least one per-step array (shape (S, n, n) or (S, n))")
+        n = arrs[0].shape[-1]
+        out = []
+        for name, X in zip(("M", "C", "K"), arrs):
+            if X.shape not in ((n, n), (S, n, n)):
+                raise ValueError(
+                    f"{name} has shape {X.shape}, expected ({S}, {n}, {n}) or ({n}, {n})")
+            out.append(np.broadcast_to(X, (S, n, n)))
+        if F.shape not in ((n,), (S, n)):
+            raise ValueError(f"F has shape {F.shape}, expected ({S}, {n}) or ({n},)")
+        if not (math.isfinite(period) and period > 0):
+            raise ValueError(f"period={period!r} must be finite and > 0")
+        self.M, self.C, self.K = out
+        #: True if M is the same at every step (a 2-D array was given)
+        self.M_constant = arrs[0].ndim == 2
+        self.F = np.broadcast_to(F, (S, n))
+        self.t0, self.period, self.steps, self.n = float(t0), float(period), int(S), int(n)
+        self.dt = self.period / self.steps
+        self._lu: dict[tuple[float, float, float, float], list[Any]] = {}
+
+    @classmethod
+    def from_system(cls, system: SecondOrderSystem, t0: float, period: float,
+                    steps: int) -> PeriodicStepData:
+        """Sample ``system.matrices`` and ``system.force`` at ``t0 + k period/steps``, k < steps."""
+        if int(steps) != steps or steps < 1:
+            raise ValueError(f"steps={steps!r} must be a positive integer")
+        ts = t0 + period * np.arange(steps) / steps
+        mats = [system.matrices(float(t)) for t in ts]
+        return cls(
+            np.array([m[0] for m in mats]), np.array([m[1] for m in mats]),
+            np.array([m[2] for m in mats]),
+            np.array([system.force(float(t)) for t in ts]), t0, period,
+        )
+
+    def lu(self, k: int, cM: float, cC: float, cK: float, alpha_f: float = 0.0) -> Any:
+        """Cached LU of the linear tangent of the step ending at point k.
+
+        ``cM Mb + cC C_k + cK K_k`` with ``Mb = (1 - alpha_f) M_k + alpha_f M_{k-1}``.
+        """
+        af = 0.0 if self.M_constant else alpha_f
+        cache = self._lu.setdefault((cM, cC, cK, af), [None] * self.steps)
+        if cache[k] is None:
+            Mb = self.M[k] if af == 0.0 else (1.0 - af) * self.M[k] + af * self.M[k - 1]
+            cache[k] = _factor(cM * Mb + cC * self.C[k] + cK * self.K[k], self.t0 + k * self.dt)
+        return cache[k]
+
+
+def _factor(S: Array, t: float) -> tuple[Array, NDArray[np.int32]]:
+    """LU factorisation by LAPACK getrf (scipy's lu_factor wrapper costs ~10 us per call)."""
+    lu, piv, info = dgetrf(S, overwrite_a=True)
+    d = np.abs(lu.diagonal())
+    dmin, dmax = d.min(), d.max()
+    if info != 0 or not (dmin > 1e-14 * dmax) or not math.isfinite(dmax):
+        raise NewtonConvergenceError(
+            f"the effective stiffness (tangent) at t = {t:.9g} s is singular or not finite "
+            f"(smallest/largest pivot {dmin:.3e}/{dmax:.3e})", t, math.nan, 0
+        )
+    return lu, piv
+
+
+_CONTROLLER: Any = None
+
+
+def _blas_threads(k: int | None) -> contextlib.AbstractContextManager[Any]:
+    """Context limiting the BLAS thread pools to ``k`` threads (no-op if None or unavailable)."""
+    global _CONTROLLER
+    if k is None or ThreadpoolController is None:
+        return contextlib.nullcontext()
+    if _CONTROLLER is None:
+        _CONTROLLER = ThreadpoolController()
+    return _CONTROLLER.limit(limits=int(k), user_api="blas")
+
+
+def _solve(lu: tuple[Array, NDArray[np.int32]], b: Array) -> Array:
+    """Solve with a factorisation from :func:`_factor` (LAPACK getrs)."""
+    x, info = dgetrs(lu[0], lu[1], b)
+    return x
+
+
+def consistent_acceleration(system: SecondOrderSystem, t: float, u: ArrayLike,
+                            v: ArrayLike) -> Array:
+    """Acceleration from the equation of motion: ``M(t) a = F(t) - C v - K u - f_nl(u)``.
+
+    Parameters
+    ----------
+    system : SecondOrderSystem
+    t : float
+        Time (s).
+    u, v : array_like (n,)
+        Displacement and velocity (model units, SI).
+
+    Returns
+    -------
+    ndarray (n,)
+        Acceleration.
+    """
+    M, C, K = system.matrices(float(t))
+    u, v = np.asarray(u, float), np.asarray(v, float)
+    rhs = np.asarray(system.force(float(t)), float) - C @ v - K @ u
+    nl = getattr(system, "nonlinear", None)
+    if nl is not None:
+        rhs = rhs - np.asarray(nl(u)[0], float)
+    try:
+        return np.linalg.solve(M, rhs)
+    except np.linalg.LinAlgError as exc:
+        raise ValueError(
+            f"the mass matrix at t = {t:.9g} s is singular; pass a0 explicitly") from exc
+
+
+# --- result -----------------------------------------------------------------------------------
+@dataclass
+class NewmarkResult:
+    """Output of :func:`integrate`.
+
+    Attributes
+    ----------
+    t : ndarray (N,)
+        Times of the stored states (s).
+    u, v, a : ndarray (N, n)
+        Displacement, velocity, acceleration at those times.
+    iterations : ndarray (nsteps,) of int
+        Newton iterations (linear solves) per step (1 for a linear system).
+    monodromy : ndarray or None
+        Product of the step Jacobians, ``d x_N / d x_0`` with ``x = (u, v)`` (2n x 2n, the
+        initial acceleration consistent) or ``x = (u, v, a)`` (3n x 3n), if requested.
+    state : str or None
+        ``"uv"`` or ``"uva"``: the state the monodromy refers to.
+    scheme : Scheme
+    """
+
+    t: Array
+    u: Array
+    v: Array
+    a: Array
+    iterations: NDArray[np.int_]
+    scheme: Scheme
+    monodromy: Array | None = None
+    state: str | None = None
+
+
+# --- the integrator ---------------------------------------------------------------------------
+def integrate(
+    system: SecondOrderSystem,
+    u0: ArrayLike,
+    v0: ArrayLike,
+    t0: float,
+    dt: float,
+    nsteps: int,
+    scheme: Scheme | None = None,
+    *,
+    a0: ArrayLike | None = None,
+    step_data: PeriodicStepData | None = None,
+    rtol: float = 1e-10,
+    xtol: float = 1e-12,
+    atol: float = 0.0,
+    max_iter: int = 20,
+    newton: Literal["full", "modified"] = "full",
+    sensitivity: bool | Literal["uv", "uva"] = False,
+    store: Literal["all", "last"] = "all",
+    blas_threads: int | None = 1,
+) -> NewmarkResult:
+    r"""March ``M u'' + C u' + K u + f_nl(u) = F`` over ``nsteps`` steps, (4.1)-(4.4).
+
+    Call forms::
+
+        res = integrate(system, u0, v0, t0, dt, nsteps)                      # (4.2)-(4.4)
+        res = integrate(system, u0, v0, t0, T / S, S, sensitivity=True)      # + monodromy
+        res = integrate(system, u0, v0, t0, dt, n, GeneralizedAlpha(0.8))    # dissipative
+
+    Parameters
+    ----------
+    system : SecondOrderSystem
+        Supplies ``matrices(t)``, ``force(t)`` and optionally ``nonlinear(u)``.
+    u0, v0 : array_like (n,)
+        Initial displacement and velocity (SI).
+    t0 : float
+        Initial time (s).
+    dt : float
+        Time step (s), > 0; ``T = S dt`` (4.1).
+    nsteps : int
+        Number of steps, >= 0.
+    scheme : Scheme, optional
+        :class:`Newmark` (default: gamma = 1/2, beta = 1/4), :class:`HHT` or
+        :class:`GeneralizedAlpha`.
+    a0 : array_like (n,), optional
+        Initial acceleration; default the consistent one from the equation at ``t0``.
+    step_data : PeriodicStepData, optional
+        Precomputed per-step ``M, C, K, F`` of a periodic system; its ``dt`` must equal ``dt``
+        and ``t0`` must fall on one of its time points (modulo the period).
+    rtol : float
+        Newton convergence: ``||R|| <= rtol * ref + atol``, ``ref`` the sum of the norms of the
+        terms of the residual (inertia, damping, stiffness, nonlinear and external forces).
+    xtol : float
+        Newton convergence, alternatively: increment ``||du|| <= xtol * ||u||``.
+    atol : float
+        Absolute residual tolerance (force units), default 0.
+    max_iter : int
+        Maximum Newton iterations (linear solves) per step.
+    newton : {"full", "modified"}
+        "full": the consistent tangent, refactorised every iteration (quadratic convergence).
+        "modified": the linear part of the tangent only (without ``K_t``), whose factorisation
+        is reused (cached per step with ``step_data``); linear convergence, cheaper steps.
+    sensitivity : bool or {"uv", "uva"}
+        Also return the product of the step Jacobians.  "uv": ``d(u_N, v_N)/d(u_0, v_0)`` with
+        the initial acceleration consistent (2n x 2n; requires ``a0=None``); the exact
+        monodromy of the discrete map for :class:`Newmark`.  "uva": ``d(u_N, v_N, a_N) /
+        d(u_0, v_0, a_0)`` (3n x 3n), the state of the alpha schemes.  True picks "uv" for
+        Newmark and "uva" otherwise.
+    store : {"all", "last"}
+        Keep every state, or only the initial and final ones.
+    blas_threads : int or None
+        BLAS threads while marching (via threadpoolctl, if installed).  Default 1: the
+        per-step operations (n up to a few hundred) are too small to gain from threads, and
+        threaded BLAS on a busy machine made them 10-50 times slower in our benchmarks.
+        None leaves the BLAS setting alone.
+
+    Returns
+    -------
+    NewmarkResult
+
+    Raises
+    ------
+    ValueError
+        Bad ``dt``, ``nsteps``, shapes, non-finite initial state, mismatched ``step_data``.
+    NewtonConvergenceError
+        A step whose Newton iteration does not converge within ``max_iter`` (the message names
+        the time, the residual norm and the iterations), or a singular tangent.
+    """
+    scheme = Newmark() if scheme is None else scheme
+    if not isinstance(scheme, Scheme):
+        raise TypeError(
+            f"scheme must be a Newmark, HHT or GeneralizedAlpha instance, got {scheme!r}")
+    dt = float(dt)
+    t0 = float(t0)
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise ValueError(f"dt={dt!r} must be finite and > 0 (s)")
+    if not math.isfinite(t0):
+        raise ValueError(f"t0={t0!r} must be finite")
+    if int(nsteps) != nsteps or nsteps < 0:
+        raise ValueError(f"nsteps={nsteps!r} must be an integer >= 0")
+    nsteps = int(nsteps)
+    if int(max_iter) != max_iter or max_iter < 1:
+        raise ValueError(f"max_iter={max_iter!r} must be an integer >= 1")
+    if not (rtol >= 0 and xtol >= 0 and atol >= 0):
+        raise ValueError(
+            f"tolerances must be >= 0, got rtol={rtol!r}, xtol={xtol!r}, atol={atol!r}")
+    if newton not in ("full", "modified"):
+        raise ValueError(f"newton={newton!r} must be 'full' or 'modified'")
+    if store not in ("all", "last"):
+        raise ValueError(f"store={store!r} must be 'all' or 'last'")
+    if sensitivity is True:
+        sensitivity = "uv" if scheme.is_newmark else "uva"
+    if sensitivity not in (False, None, "uv", "uva"):
+        raise ValueError(f"sensitivity={sensitivity!r} must be False, True, 'uv' or 'uva'")
+    if sensitivity == "uv" and a0 is not None:
+        raise ValueError("sensitivity='uv' differentiates through the consistent initial "
+                         "acceleration: leave a0=None")
+    if blas_threads is not None and (int(blas_threads) != blas_threads or blas_threads < 1):
+        raise ValueError(f"blas_threads={blas_threads!r} must be None or an integer >= 1")
+    with _blas_threads(blas_threads):
+        return _march(system, u0, v0, t0, dt, nsteps, scheme, a0, step_data, rtol, xtol, atol,
+                      max_iter, newton, sensitivity, store)
+
+
+def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, dt: float,
+           nsteps: int, scheme: Scheme, a0: ArrayLike | None, step_data: PeriodicStepData | None,
+           rtol: float, xtol: float, atol: float, max_iter: int, newton: str, sensitivity: Any,
+           store: str) -> NewmarkResult:
+    """The body of :func:`integrate` (arguments checked there)."""
+    u = np.array(u0, dtype=float).ravel() if np.ndim(u0) else np.array([u0], dtype=float)
+    v = np.array(v0, dtype=float).ravel() if np.ndim(v0) else np.array([v0], dtype=float)
+    n = u.size
+    if v.shape != (n,):
+        raise ValueError(f"v0 has shape {v.shape}, expected ({n},) like u0")
+    if not (np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
+        raise ValueError("the initial state u0, v0 must be finite")
+
+    nl = getattr(system, "nonlinear", None)
+    linear = nl is None
+
+    # --- access to the per-step data ---------------------------------------------------------
+    if step_data is not None:
+        sd = step_data
+        if sd.n != n:
+            raise ValueError(f"step_data has n={sd.n} DOFs, the initial state has {n}")
+        if abs(sd.dt - dt) > 1e-12 * dt:
+            raise ValueError(f"dt={dt!r} differs from step_data.dt={sd.dt!r} (period / steps)")
+        off = (t0 - sd.t0) / dt
+        k0 = round(off)
+        if abs(off - k0) > 1e-8 * max(1.0, abs(off)):
+            raise ValueError(f"t0={t0!r} is not a time point of step_data "
+                             f"(t0 + k dt, t0={sd.t0!r}, dt={dt!r})")
+        k0 %= sd.steps
+
+        def data(j: int) -> tuple[Array, Array, Array, Array]:
+            k = (k0 + j) % sd.steps
+            return sd.M[k], sd.C[k], sd.K[k], sd.F[k]
+    else:
+        sd = None
+        k0 = 0
+        fixed: list[Array] = []  # M, C, K of a time-invariant system, read once
+
+        def data(j: int) -> tuple[Array, Array, Array, Array]:
+            t = t0 + j * dt
+            if fixed:
+                M, C, K = fixed
+            else:
+                M, C, K = (np.asarray(X, float) for X in system.matrices(t))
+                if getattr(system, "time_invariant", False):
+                    fixed.extend((M, C, K))
+            return M, C, K, np.asarray(system.force(t), float)
+
+    g, b = float(scheme.gamma), float(scheme.beta)
+    am, af = float(scheme.alpha_m), float(scheme.alpha_f)
+    newmark = am == 0.0 and af == 0.0
+    bdt2 = b * dt * dt
+    cM, cC, cK = (1.0 - am) / bdt2, (1.0 - af) * g / (b * dt), 1.0 - af
+    c_up, c_vp = dt * dt * (0.5 - b), dt * (1.0 - g)
+
+    M0, C0, K0, F0 = data(0)
+    for name, X in (("M", M0), ("C", C0), ("K", K0)):
+        if X.shape != (n, n):
+            raise ValueError(f"{name}(t0) has shape {X.shape}, expected ({n}, {n})")
+    if F0.shape != (n,):
+        raise ValueError(f"F(t0) has shape {F0.shape}, expected ({n},)")
+
+    if linear:
+        fnl0 = np.zeros(n)
+        Kt0 = None
+    else:
+        fnl0, Kt0 = nl(u)
+        fnl0, Kt0 = np.asarray(fnl0, float), np.asarray(Kt0, float)
+    if a0 is None:
+        try:
+            a = np.linalg.solve(M0, F0 - C0 @ v - K0 @ u - fnl0)
+        except np.linalg.LinAlgError as exc:
+            raise ValueError(
+                f"the mass matrix at t0={t0!r} is singular; pass a0 explicitly") from exc
+    else:
+        a = np.array(a0, dtype=float).ravel() if np.ndim(a0) else np.array([a0], dtype=float)
+        if a.shape != (n,):
+            raise ValueError(f"a0 has shape {a.shape}, expected ({n},)")
+        if not np.all(np.isfinite(a)):
+            raise ValueError("the initial acceleration a0 must be finite")
+
+    # --- storage -------------------------------------------------------------------------
+    nstore = nsteps + 1 if store == "all" else 2
+    T = np.empty(nstore)
+    U, V, A = (np.empty((nstore, n)) for _ in range(3))
+    T[0], U[0], V[0], A[0] = t0, u, v, a
+    iters = np.ones(nsteps, dtype=int)
+
+    # history term of the alpha schemes: g_n = C v + K u + f_nl - F at t_n
+    if not newmark:
+        gn = C0 @ v + K0 @ u + fnl0 - F0
+
+    # sensitivity: Phi = d(u, v, a)_n / d(initial state), blocks of shape (n, m)
+    Phi = None
+    if sensitivity:
+        if sensitivity == "uv":
+            Pu = np.hstack([np.eye(n), np.zeros((n, n))])
+            Pv = np.hstack([np.zeros((n, n)), np.eye(n)])
+            Kfull = K0 if Kt0 is None else K0 + Kt0
+            Pa = -np.linalg.solve(M0, np.hstack([Kfull, C0]))
+        else:
+            Pu = np.hstack([np.eye(n), np.zeros((n, 2 * n))])
+            Pv = np.hstack([np.zeros((n, n)), np.eye(n), np.zeros((n, n))])
+            Pa = np.hstack([np.zeros((n, 2 * n)), np.eye(n)])
+        Phi = (Pu, Pv, Pa)
+    prev = (M0, C0, K0, Kt0)  # matrices at t_n (for the alpha terms)
+
+    time_invariant = bool(getattr(system, "time_invariant", False)) and sd is None
+    M_const = newmark or time_invariant or (sd is not None and sd.M_constant)
+    lu_const = None  # factorisation of the (constant) linear tangent
+
+    def linear_lu(j: int, M: Array, C: Array, K: Array) -> Any:
+        nonlocal lu_const
+        if sd is not None:
+            return sd.lu((k0 + j) % sd.steps, cM, cC, cK, af)
+        if time_invariant:
+            if lu_const is None:
+                lu_const = _factor(cM * M + cC * C + cK * K, t0 + j * dt)
+            return lu_const
+        return _factor(cM * M + cC * C + cK * K, t0 + j * dt)
+
+    # --- time loop ---------------------------------------------------------------------------
+    for j in range(1, nsteps + 1):
+        t = t0 + j * dt
+        M, C, K, F = data(j)
+        # the mass matrix of the inertia term: M_{n+1}, or M at t_{n+1-alpha_f} for alpha schemes
+        Mb = M if M_const else (1.0 - af) * M + af * prev[0]
+        ut = u + dt * v + c_up * a      # predictors (4.3), (4.2) without the new acceleration
+        vt = v + c_vp * a
+        hist = None if newmark else am * (Mb @ a) + af * gn
+        # start from a_{n+1} = a_n
+        u1 = ut + bdt2 * a
+        if linear:
+            v1 = vt + (g * dt) * a
+            if newmark:
+                R = Mb @ a + C @ v1 + K @ u1 - F
+            else:
+                R = (1.0 - am) * (Mb @ a) + (1.0 - af) * (C @ v1 + K @ u1 - F) + hist
+            lu = linear_lu(j, Mb, C, K)
+            u1 -= _solve(lu, R)
+            Kt1 = None
+            fnl1 = None
+        else:
+            k_it = 0
+            lu = None
+            du_norm = math.inf
+            while True:
+                fnl1, Kt1 = nl(u1)
+                fnl1, Kt1 = np.asarray(fnl1, float), np.asarray(Kt1, float)
+                a1 = (u1 - ut) / bdt2
+                v1 = vt + (g * dt) * a1
+                Ma1, Cv1, Ku1 = Mb @ a1, C @ v1, K @ u1
+                R = (1.0 - am) * Ma1 + (1.0 - af) * (Cv1 + Ku1 + fnl1 - F)
+                ref = (1.0 - am) * np.linalg.norm(Ma1) + (1.0 - af) * (
+                    np.linalg.norm(Cv1) + np.linalg.norm(Ku1) + np.linalg.norm(fnl1)
+                    + np.linalg.norm(F))
+                if hist is not None:
+                    R += hist
+                    ref += np.linalg.norm(hist)
+                rn = float(np.linalg.norm(R))
+                if not math.isfinite(rn):
+                    raise NewtonConvergenceError(
+                        f"Newton-Raphson diverged in step {j} at t = {t:.9g} s: residual norm {rn} "
+                        f"(not finite) after {k_it} iterations", t, rn, k_it)
+                if rn <= rtol * ref + atol or du_norm <= xtol * float(np.linalg.norm(u1)):
+                    break
+                if k_it >= max_iter:
+                    raise NewtonConvergenceError(
+                        f"Newton-Raphson did not converge in step {j} at t = {t:.9g} s: residual "
+                        f"norm {rn:.3e} (tolerance {rtol:.1e} x {ref:.3e} + {atol:.1e}) after "
+                        f"{k_it} iterations (max_iter={max_iter})", t, rn, k_it)
+                if newton == "full":
+                    lu = _factor(cM * Mb + cC * C + cK * (K + Kt1), t)
+                elif lu is None:
+                    lu = linear_lu(j, Mb, C, K)
+                du = _solve(lu, R)
+                u1 = u1 - du
+                du_norm = float(np.linalg.norm(du))
+                k_it += 1
+            iters[j - 1] = k_it
+        a1 = (u1 - ut) / bdt2
+        v1 = vt + (g * dt) * a1
+
+        if Phi is not None:
+            Pu, Pv, Pa = Phi
+            dut = Pu + dt * Pv + c_up * Pa
+            dvt = Pv + c_vp * Pa
+            das = dut / (-bdt2)
+            dR = (1.0 - am) * (Mb @ das) + (1.0 - af) * (C @ (dvt + (g * dt) * das))
+            if not newmark:
+                _, Cp, Kp, Ktp = prev
+                Kp_full = Kp if Ktp is None else Kp + Ktp
+                dR += am * (Mb @ Pa) + af * (Kp_full @ Pu + Cp @ Pv)
+            if linear:
+                lu_s = lu
+            else:  # the consistent tangent at the converged u_{n+1}
+                lu_s = _factor(cM * Mb + cC * C + cK * (K + Kt1), t)
+            du1 = -_solve(lu_s, dR)
+            da1 = (du1 - dut) / bdt2
+            Phi = (du1, dvt + (g * dt) * da1, da1)
+        prev = (M, C, K, Kt1)
+
+        if not newmark:
+            gn = C @ v1 + K @ u1 - F
+            if fnl1 is not None:
+                gn += fnl1
+        u, v, a = u1, v1, a1
+        if store == "all":
+            T[j], U[j], V[j], A[j] = t, u, v, a
+    if store == "last":
+        T[1], U[1], V[1], A[1] = t0 + nsteps * dt, u, v, a
+
+    mono = None
+    state = None
+    if Phi is not None:
+        state = str(sensitivity)
+        mono = np.vstack(Phi[:2]) if sensitivity == "uv" else np.vstack(Phi)
+    return NewmarkResult(t=T, u=U, v=V, a=A, iterations=iters, scheme=scheme, monodromy=mono,
+                         state=state)
