@@ -9,6 +9,8 @@ Cases (n = 100 DOFs by default, random SPD mass and stiffness, Rayleigh damping)
   nl_full        tv_step_data plus a cubic nonlinearity, full Newton (refactorised)
   nl_modified    the same, modified Newton (cached linear tangent)
   tv_monodromy   one period of tv_step_data with the 2n x 2n monodromy (sensitivity="uv")
+  tv_monodromy_blas_default   the same with the BLAS thread pools left alone
+                 (integrate(blas_threads=None)); the other cases run with 1 BLAS thread
 Each number is the median over >= 5 runs of (wall time / steps), in microseconds.
 
 Usage: python benchmarks/bench_newmark_generic.py [--n 100] [--repeats 5] [--blas-threads K]
@@ -104,6 +106,9 @@ def main() -> None:
                                                    store="last"), N),
             "tv_monodromy": timed(lambda: integrate(tv, u0, v0, 0.0, dt, S, sch, step_data=sd,
                                                     sensitivity="uv", store="last"), S),
+            "tv_monodromy_blas_default": timed(lambda: integrate(tv, u0, v0, 0.0, dt, S, sch,
+                                                                 step_data=sd, sensitivity="uv",
+                                                                 store="last", blas_threads=None), S),
         },
     }
     r = integrate(tvn, u0 + 0.03, v0, 0.0, dt, N, sch, step_data=sd)

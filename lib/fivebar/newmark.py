@@ -17,12 +17,13 @@ the model supplies ``M, C, K, F`` (and the nonlinear force) through a small prot
 
 .. math::
 
-    \dot{\mathbf u}_{n+1} &= \dot{\mathbf u}_n
+    \dot{\mathbf u}_{n+1} = \dot{\mathbf u}_n
         + \big((1-\gamma)\ddot{\mathbf u}_n + \gamma\,\ddot{\mathbf u}_{n+1}\big)\Delta t,
-        \qquad &(4.2)\\
-    \mathbf u_{n+1} &= \mathbf u_n + \dot{\mathbf u}_n\Delta t
-        + \big((\tfrac12-\beta)\ddot{\mathbf u}_n + \beta\,\ddot{\mathbf u}_{n+1}\big)\Delta t^2,
-        \qquad &(4.3)
+        \qquad (4.2)
+
+    \mathbf u_{n+1} = \mathbf u_n + \dot{\mathbf u}_n\Delta t
+        + \big((\tfrac12-\beta)\ddot{\mathbf u}_n + \beta\,\ddot{\mathbf u}_{n+1}\big)\Delta t^2
+        \qquad (4.3)
 
 (the paper prints :math:`\vartheta\,\mathbf u_{t+\Delta t}` in (4.3); the acceleration
 :math:`\vartheta\,\ddot{\mathbf u}_{t+\Delta t}` is meant, errata E21).  The rule is
