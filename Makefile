@@ -20,23 +20,31 @@ $(STAMP): requirements-lock.txt pyproject.toml
 	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
-## make test: library unit tests + nbval (strict) over every notebook in book/
-test: venv
+## make test: the book (built first: warnings are errors), library unit tests, nbval (strict)
+## over every notebook in book/, and the browser test of the built book (tests/test_browser.py)
+test: venv book
 	$(BIN)/python -m pytest -p no:cacheprovider tests book --nbval --nbval-current-env \
 	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
 
+## make test-unit: only the library's unit tests (no book, no browser)
 test-unit: venv
-	$(BIN)/python -m pytest -p no:cacheprovider tests -q
+	$(BIN)/python -m pytest -p no:cacheprovider tests -q --ignore=tests/test_browser.py
 
 test-notebooks: venv
 	$(BIN)/python -m pytest -p no:cacheprovider book --nbval --nbval-current-env \
 	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
 
-## make book: the rendered HTML book in _build/html (warnings are errors; cached execution)
+## make book: the rendered HTML book in _build/html.  Sphinx warnings are errors (-W -n,
+## --keep-going reports them all), a failing notebook cell fails the build, and notebook
+## execution is cached (_build/.jupyter_cache): an unchanged rebuild takes seconds.
+## The log is _build/book.log; _build/html/.fivebar-build-ok marks a successful build.
 book: venv
-	set -eo pipefail; $(BIN)/jupyter-book build . --builder html -W -n --keep-going
+	@mkdir -p _build && rm -f _build/html/.fivebar-build-ok
+	set -eo pipefail; \
+	$(BIN)/jupyter-book build . --builder html -W -n --keep-going 2>&1 | tee _build/book.log; \
+	touch _build/html/.fivebar-build-ok
 
-## make book-clean: force a full re-execution and rebuild
+## make book-clean: force a full re-execution of every notebook and a full rebuild
 book-clean: venv
 	rm -rf _build
 	$(MAKE) book

@@ -1,0 +1,393 @@
+"""The built book as a reader sees it: every page in a real browser, offline.
+
+Two groups of tests on ``_build/html``:
+
+* static checks of the HTML (no browser): no page loads a script, stylesheet, font or image
+  from another host; MathJax is served from the build; every module of the library is in
+  the API reference; every notebook in book/ is in the table of contents;
+* a headless Chromium (Debian's ``/usr/bin/chromium`` driven by playwright) opens every page
+  from a local HTTP server and checks that it loads, that every resource it requests answers
+  200 and none is requested from another host, that no JavaScript error is logged, that
+  every image decodes, that MathJax typesets every equation, that the download links of the
+  chapters work, and that the search page finds a word of a chapter.  It saves screenshots
+  to ``_build/screenshots/``.
+
+The book is built by ``make book`` (``make test`` depends on it).  If ``_build/html`` is
+missing or older than its sources, the ``book`` fixture runs ``make book`` itself.  Under CI
+(``CI=true``) the browser tests are required: a missing Chromium or book fails them; on a
+machine without Chromium they are skipped with the reason.  Set ``FIVEBAR_CHROMIUM`` to use
+another Chromium binary.
+"""
+
+from __future__ import annotations
+
+import functools
+import http.server
+import os
+import re
+import shutil
+import subprocess
+import threading
+import urllib.parse
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+HTML = ROOT / "_build" / "html"
+STAMP = HTML / ".fivebar-build-ok"  # written by `make book` after a build without warnings
+SCREENSHOTS = ROOT / "_build" / "screenshots"
+CHROMIUM = os.environ.get("FIVEBAR_CHROMIUM", "/usr/bin/chromium")
+IN_CI = os.environ.get("CI", "").strip().lower() in {"true", "1", "yes"}
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-quic",
+]
+#: A word the search page must find (it is in the introduction and in the chapters).
+SEARCH_WORD = "linkage"
+
+
+def _unavailable(reason: str) -> None:
+    """Fail under CI, skip elsewhere."""
+    if IN_CI:
+        pytest.fail(f"{reason} (required when CI=true)")
+    pytest.skip(reason)
+
+
+# --------------------------------------------------------------------------------------------
+# The built book
+# --------------------------------------------------------------------------------------------
+
+
+def _sources() -> Iterator[Path]:
+    yield ROOT / "_config.yml"
+    yield ROOT / "_toc.yml"
+    for folder, pattern in (("book", "**/*"), ("lib/fivebar", "**/*.py"), ("data", "*")):
+        for p in (ROOT / folder).glob(pattern):
+            if p.is_file() and ".ipynb_checkpoints" not in p.parts and "__pycache__" not in p.parts:
+                yield p
+
+
+def book_is_fresh() -> bool:
+    """True if the last successful ``make book`` is newer than every source of the book."""
+    if not STAMP.is_file():
+        return False
+    built = STAMP.stat().st_mtime
+    return all(p.stat().st_mtime <= built for p in _sources())
+
+
+@pytest.fixture(scope="session")
+def book() -> Path:
+    """``_build/html``, built (``make book``) if it is missing or stale."""
+    if not book_is_fresh():
+        if shutil.which("make") is None:
+            _unavailable("the book is not built and `make` is not available")
+        run = subprocess.run(["make", "book"], cwd=ROOT, capture_output=True, text=True)
+        if run.returncode != 0 or not STAMP.is_file():
+            tail = "\n".join((run.stdout + run.stderr).splitlines()[-40:])
+            pytest.fail(f"`make book` failed (exit {run.returncode}):\n{tail}")
+    return HTML
+
+
+def _pages(html: Path) -> list[Path]:
+    return sorted(p for p in html.rglob("*.html")
+                  if not p.relative_to(html).parts[0].startswith("_"))
+
+
+def _chapter_notebooks() -> list[Path]:
+    return sorted((ROOT / "book").glob("[0-9]*.ipynb"))
+
+
+# --------------------------------------------------------------------------------------------
+# Static checks (no browser)
+# --------------------------------------------------------------------------------------------
+
+_REMOTE = re.compile(r"^\s*(https?:)?//", re.I)
+_TAG = re.compile(r"<(script|link|img|source|iframe|embed|object|audio|video)\b[^>]*>", re.I | re.S)
+_ATTR = re.compile(r"\b(src|href|data|srcset)\s*=\s*(\"[^\"]*\"|'[^']*')", re.I)
+
+
+def _remote_resources(page: Path) -> list[str]:
+    """Remote URLs a page would load: script/img/iframe sources and <link> resources.
+
+    Hyperlinks (<a href>) are not resources and are allowed; so are <link rel=...> that do
+    not load anything (canonical, index, search, next, prev).
+    """
+    bad = []
+    for tag in _TAG.finditer(page.read_text(encoding="utf-8")):
+        text = tag.group(0)
+        name = tag.group(1).lower()
+        if name == "link":
+            rel = re.search(r"\brel\s*=\s*[\"']([^\"']*)", text, re.I)
+            rels = set((rel.group(1) if rel else "").lower().split())
+            if not rels & {"stylesheet", "preload", "modulepreload", "icon", "manifest",
+                           "prefetch", "preconnect", "dns-prefetch"}:
+                continue
+        for attr in _ATTR.finditer(text):
+            for url in attr.group(2)[1:-1].split(","):
+                if _REMOTE.match(url):
+                    bad.append(f"<{name} {attr.group(1)}={url.strip()}>")
+    return bad
+
+
+def test_no_page_loads_anything_remote(book):
+    pages = _pages(book)
+    assert len(pages) >= 5, f"only {len(pages)} pages in {book}"
+    bad = {str(p.relative_to(book)): r for p in pages if (r := _remote_resources(p))}
+    assert not bad, f"pages load remote resources: {bad}"
+
+
+def test_no_stylesheet_loads_remote_fonts_or_images(book):
+    bad = []
+    for css in (book / "_static").rglob("*.css"):
+        text = re.sub(r"/\*.*?\*/", "", css.read_text(encoding="utf-8", errors="replace"),
+                      flags=re.S)
+        for m in re.finditer(r"(url\(\s*[\"']?|@import\s+[\"'])\s*((https?:)?//[^\"')\s]+)", text):
+            bad.append(f"{css.relative_to(book)}: {m.group(2)}")
+    assert not bad, f"stylesheets load remote resources: {bad}"
+
+
+def test_mathjax_is_served_from_the_build(book):
+    mathjax = book / "_static" / "mathjax"
+    assert (mathjax / "tex-mml-chtml.js").is_file()
+    fonts = list((mathjax / "output" / "chtml" / "fonts" / "woff-v2").glob("*.woff"))
+    assert len(fonts) > 10, "MathJax's CHTML fonts are missing"
+    with_math = [p for p in _pages(book) if 'class="math' in p.read_text(encoding="utf-8")]
+    assert with_math, "no page with math: the check below would be empty"
+    for page in with_math:
+        text = page.read_text(encoding="utf-8")
+        assert re.search(r"<script[^>]*src=\"[./]*_static/mathjax/tex-mml-chtml\.js", text), \
+            f"{page.relative_to(book)} does not load the local MathJax"
+
+
+def test_every_library_module_is_in_the_api_reference():
+    api = (ROOT / "book" / "api.md").read_text(encoding="utf-8")
+    documented = set(re.findall(r"automodule::\s*(fivebar\.\w+)", api))
+    modules = {f"fivebar.{p.stem}" for p in (ROOT / "lib" / "fivebar").glob("*.py")
+               if not p.stem.startswith("_")}
+    missing = sorted(modules - documented)
+    assert not missing, f"add these modules to book/api.md (an automodule section each): {missing}"
+
+
+def test_every_chapter_notebook_is_in_the_toc():
+    toc = (ROOT / "_toc.yml").read_text(encoding="utf-8")
+    listed = set(re.findall(r"file:\s*(\S+)", toc))
+    missing = [str(nb.relative_to(ROOT)) for nb in _chapter_notebooks()
+               if str(nb.relative_to(ROOT).with_suffix("")) not in listed]
+    assert not missing, f"notebooks not in _toc.yml (they would not be built): {missing}"
+
+
+# --------------------------------------------------------------------------------------------
+# The browser
+# --------------------------------------------------------------------------------------------
+
+
+class _Handler(http.server.SimpleHTTPRequestHandler):
+    def end_headers(self) -> None:
+        # No caching: every request reaches the server and must answer 200 (not 304).
+        self.send_header("Cache-Control", "no-store")
+        super().end_headers()
+
+    def log_message(self, *args) -> None:  # quiet
+        pass
+
+
+@pytest.fixture(scope="module")
+def server(book) -> Iterator[str]:
+    handler = functools.partial(_Handler, directory=str(book))
+    httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield f"http://127.0.0.1:{httpd.server_address[1]}"
+    finally:
+        httpd.shutdown()
+        httpd.server_close()
+
+
+@pytest.fixture(scope="module")
+def browser(book, tmp_path_factory):
+    """A fresh headless Chromium context; requests to any other host are refused."""
+    if not os.access(CHROMIUM, os.X_OK):
+        _unavailable(f"Chromium not found at {CHROMIUM} (apt-get install chromium)")
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        _unavailable("playwright for Python is not installed")
+    pw = sync_playwright().start()
+    context = pw.chromium.launch_persistent_context(
+        str(tmp_path_factory.mktemp("chromium-profile")),
+        executable_path=CHROMIUM,
+        headless=True,
+        args=CHROMIUM_ARGS,
+        viewport={"width": 1280, "height": 900},
+    )
+    outside: list[str] = []
+
+    def route(r):
+        host = urllib.parse.urlsplit(r.request.url).hostname
+        if host in ("127.0.0.1", "localhost"):
+            r.continue_()
+        else:
+            outside.append(r.request.url)
+            r.abort()
+
+    context.route("**/*", route)
+    context.outside_requests = outside
+    try:
+        yield context
+    finally:
+        context.close()
+        pw.stop()
+
+
+_WAIT_FOR_PAGE = """async () => {
+    for (const img of document.images) { img.loading = 'eager'; }
+    if (window.MathJax && MathJax.startup && MathJax.startup.promise) {
+        await MathJax.startup.promise;
+    }
+    await Promise.all(Array.from(document.images, img => img.decode().catch(() => null)));
+}"""
+
+_INSPECT_PAGE = """() => {
+    const bad = (sel) => Array.from(document.querySelectorAll(sel));
+    return {
+        broken_images: Array.from(document.images)
+            .filter(img => !(img.complete && img.naturalWidth > 0))
+            .map(img => img.getAttribute('src')),
+        display_math: document.querySelectorAll('div.math').length,
+        display_untypeset: bad('div.math')
+            .filter(el => !el.querySelector('mjx-container[display="true"]'))
+            .map(el => el.textContent.trim().slice(0, 80)),
+        display_typeset: document.querySelectorAll('mjx-container[display="true"]').length,
+        inline_untypeset: bad('span.math')
+            .filter(el => !el.querySelector('mjx-container'))
+            .map(el => el.textContent.trim().slice(0, 80)),
+        tex_errors: bad('mjx-merror, [data-mjx-error]')
+            .map(el => (el.getAttribute('data-mjx-error') || el.textContent).slice(0, 80)),
+        downloads: bad('a.btn-download-source-button, a[href$=".ipynb"]')
+            .map(a => a.href),
+    };
+}"""
+
+
+def _settle(page) -> dict:
+    """Wait until the page (after any redirect) has typeset its math and decoded its images."""
+    for attempt in range(3):
+        try:
+            page.wait_for_load_state("networkidle")
+            page.evaluate(_WAIT_FOR_PAGE)
+            page.wait_for_load_state("networkidle")
+            return page.evaluate(_INSPECT_PAGE)
+        except Exception as exc:  # a redirect page navigates while we look at it
+            if "context was destroyed" not in str(exc) or attempt == 2:
+                raise
+            page.wait_for_load_state("load")
+    raise AssertionError("unreachable")
+
+
+def _check_page(context, url: str) -> tuple[list[str], dict]:
+    """Open one page; return its problems and what was inspected."""
+    problems: list[str] = []
+    page = context.new_page()
+    page.on("console", lambda m: m.type == "error" and problems.append(f"console error: {m.text}"))
+    page.on("pageerror", lambda e: problems.append(f"JavaScript error: {e}"))
+    page.on("requestfailed", lambda r: problems.append(f"request failed: {r.url} ({r.failure})"))
+    page.on("response", lambda r: r.status != 200
+            and problems.append(f"HTTP {r.status}: {r.url}"))
+    try:
+        response = page.goto(url, wait_until="load")
+        if response is None or response.status != 200:
+            problems.append(f"the page answered {response.status if response else 'nothing'}")
+        info = _settle(page)
+        for link in sorted(set(info["downloads"])):
+            if urllib.parse.urlsplit(link).hostname in ("127.0.0.1", "localhost"):
+                r = page.request.get(link)
+                if r.status != 200:
+                    problems.append(f"download link {link} answered {r.status}")
+    finally:
+        page.close()
+    if info["broken_images"]:
+        problems.append(f"images that do not load: {info['broken_images']}")
+    if info["display_untypeset"]:
+        problems.append(f"display equations not typeset by MathJax: {info['display_untypeset']}")
+    if info["display_typeset"] < info["display_math"]:
+        problems.append(f"{info['display_typeset']} typeset display equations for "
+                        f"{info['display_math']} display-math blocks")
+    if info["inline_untypeset"]:
+        problems.append(f"inline math not typeset: {info['inline_untypeset'][:5]}")
+    if info["tex_errors"]:
+        problems.append(f"TeX errors: {info['tex_errors'][:5]}")
+    return problems, info
+
+
+def test_every_page_renders_offline(book, server, browser):
+    pages = _pages(book)
+    report: dict[str, list[str]] = {}
+    equations = 0
+    for path in pages:
+        rel = path.relative_to(book).as_posix()
+        problems, info = _check_page(browser, f"{server}/{rel}")
+        equations += info["display_typeset"]
+        if problems:
+            report[rel] = problems
+    if browser.outside_requests:
+        report["(any page)"] = [f"request to another host: {u}"
+                                for u in sorted(set(browser.outside_requests))]
+    assert not report, "\n".join(f"{page}:\n  " + "\n  ".join(p) for page, p in report.items())
+    assert equations > 0, "no display equation was typeset in the whole book"
+
+
+def test_chapters_offer_their_notebook_for_download(book, server, browser):
+    chapters = [nb.stem for nb in _chapter_notebooks()
+                if (book / "book" / f"{nb.stem}.html").is_file()]
+    if not chapters:
+        pytest.skip("no chapter notebook in the book yet")
+    page = browser.new_page()
+    try:
+        for stem in chapters:
+            page.goto(f"{server}/book/{stem}.html")
+            hrefs = page.eval_on_selector_all("a.btn-download-source-button",
+                                              "els => els.map(a => a.href)")
+            assert any(h.endswith(f"/_sources/book/{stem}.ipynb") for h in hrefs), \
+                f"book/{stem}.html offers no .ipynb download: {hrefs}"
+    finally:
+        page.close()
+
+
+def test_search_finds_a_word_of_the_chapters(book, server, browser):
+    page = browser.new_page()
+    try:
+        page.goto(f"{server}/search.html?q={SEARCH_WORD}")
+        page.wait_for_selector("#search-results ul.search li a", timeout=30_000)
+        hits = page.eval_on_selector_all("#search-results ul.search li a",
+                                         "els => els.map(a => a.getAttribute('href'))")
+    finally:
+        page.close()
+    assert any("book/" in h for h in hits), f"search for {SEARCH_WORD!r} found no page: {hits}"
+
+
+def test_screenshots(book, server, browser):
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    shots = {"front": "book/index.html"}
+    figure6 = sorted(book.glob("book/*figure*6*.html")) + sorted(book.glob("book/*fig6*.html"))
+    modes = sorted(book.glob("book/*modes*.html"))
+    if figure6 or modes:
+        shots["figure6" if figure6 else "modes"] = (figure6 or modes)[0].relative_to(book).as_posix()
+    page = browser.new_page()
+    try:
+        for name, rel in shots.items():
+            page.goto(f"{server}/{rel}")
+            _settle(page)
+            out = SCREENSHOTS / f"{name}.png"
+            page.screenshot(path=str(out), full_page=False)
+            assert out.stat().st_size > 10_000, f"{out} looks empty"
+    finally:
+        page.close()
