@@ -147,12 +147,12 @@ __all__ = [
     "simulate_cycle",
 ]
 
-#: Output names offered by :meth:`ModalModel.statespace` (see the module docstring).
+#: Output names offered by :meth:`ModalModel.statespace`, see the module docstring.
 OUTPUTS = (
     "theta1", "theta4", "omega1", "omega4", "crank1", "crank4", "crank_rate1", "crank_rate4",
     "rigid1", "rigid4", "w2", "w3",
 )
-#: The default outputs: rotor (crank) angles and midpoint deflections of L2, L3.
+#: The default outputs, rotor (crank) angles and midpoint deflections of L2 and L3.
 DEFAULT_OUTPUTS = ("theta1", "theta4", "w2", "w3")
 _INPUTS = ("tau1", "tau4")
 _MEASURES = ("rotor", "crank")
@@ -265,7 +265,7 @@ class FlexibleLinkage:
 
     Attributes
     ----------
-    model : Model
+    model : fivebar.assembly.Model
         The literal assembly (``tie_crank_roots=False``) the coordinates are built on.
     labels : list of str
         Names of the coordinates p: ``phi1, phi2`` (rotor angles), ``U3, U7`` (twists at the
@@ -274,8 +274,8 @@ class FlexibleLinkage:
         Number of coordinates.
     rotor, crank : tuple of int
         Indices of the rotor angles and of the crank-root rotations s_A, s_E in p.
-    B : ndarray (n, 2)
-        Input matrix: the motor torques act on the rotor angles.
+    B : ndarray
+        Input matrix, shape (n, 2): the motor torques act on the rotor angles.
     """
 
     def __init__(
@@ -450,14 +450,14 @@ class ModalModel:
         Elastic natural frequencies (rad/s) of the retained modes.
     zeta : float
         Modal damping ratio of the elastic modes.
-    M, K : ndarray (n, n)
-        Full-order matrices at the configuration.
+    M, K : ndarray
+        Full-order matrices at the configuration, shape (n, n).
     Phi_r, Phi_e : ndarray
-        Rigid (n, 2) and retained elastic (n, n_modes) modes.
-    M_rigid : ndarray (2, 2)
-        Rigid mass matrix Phi_r^T M Phi_r (kg m^2).
+        Rigid modes, shape (n, 2), and retained elastic modes, shape (n, n_modes).
+    M_rigid : ndarray
+        Rigid mass matrix Phi_r^T M Phi_r (kg m^2), shape (2, 2).
     A, B : ndarray
-        State matrices (2 (2 + n_modes) square, and (., 2)).
+        State matrices, shapes (nx, nx) and (nx, 2), nx = 2 (2 + n_modes).
     """
 
     linkage: FlexibleLinkage
@@ -485,18 +485,18 @@ class ModalModel:
 
     @property
     def state_names(self) -> list[str]:
-        """Names of the states: rigid angles, modal coordinates and their rates."""
+        """Names of the states (rigid angles, modal coordinates, their rates)."""
         pos = ["rigid1", "rigid4"] + [f"eta{j + 1}" for j in range(self.n_modes)]
         return pos + [f"d{s}" for s in pos]
 
     @property
     def basis(self) -> NDArray:
-        """(n, 2 + n_modes): p = basis @ eta."""
+        """The modes as columns, p = basis @ eta, shape (n, 2 + n_modes)."""
         return np.hstack([self.Phi_r, self.Phi_e])
 
     @property
     def projection(self) -> NDArray:
-        """(2 + n_modes, n): eta = projection @ p (exact for a p in the span of the basis)."""
+        """The map eta = projection @ p, shape (2 + n_modes, n), exact on the basis' span."""
         top = np.linalg.solve(self.M_rigid, self.Phi_r.T @ self.M)
         return np.vstack([top, self.Phi_e.T @ self.M])
 
@@ -549,6 +549,27 @@ class ModalModel:
         outputs = _outputs(outputs)
         return control.ss(self.A - self.B @ F, self.B, self.output(outputs), np.zeros((len(outputs), 2)),
                           inputs=list(_INPUTS), outputs=list(outputs), states=self.state_names)
+
+    def elastic_poles(self, servo: "Servo", K_x: NDArray | None = None) -> tuple[NDArray, NDArray]:
+        """Natural frequencies (Hz) and damping ratios of the closed loop's elastic poles.
+
+        ``f, zeta = mm.elastic_poles(servo, K_x)``: the poles of :meth:`closed_loop` ordered
+        by natural frequency, one per complex pair, without the four of smallest magnitude
+        (the servo's, from the rigid modes); ``n_modes`` values (a real pair counts once, at
+        its geometric mean frequency, with its damping ratio ``(a + b) / (2 sqrt(a b))``).
+        """
+        A = self.A - self.B @ (self.feedback_matrix(servo) + (0.0 if K_x is None else np.asarray(K_x)))
+        p = np.linalg.eigvals(A)
+        p = p[np.argsort(np.abs(p))][4:]
+        cx = p[p.imag > 1e-9 * np.abs(p)]
+        real = np.sort(p[np.abs(p.imag) <= 1e-9 * np.abs(p)].real)
+        wn = list(np.abs(cx))
+        z = list(-cx.real / np.abs(cx))
+        for a, b in zip(real[::2], real[1::2]):  # real pairs, neighbours in magnitude
+            wn.append(np.sqrt(a * b))
+            z.append(-(a + b) / (2 * np.sqrt(a * b)))
+        o = np.argsort(wn)
+        return np.asarray(wn)[o] / (2 * np.pi), np.asarray(z)[o]
 
     def loop(self, servo: "Servo", channel: int, K_x: NDArray | None = None) -> control.StateSpace:
         """Loop transfer function broken at motor ``channel`` (1 or 2), the other loop closed.
@@ -761,7 +782,7 @@ def damping_lqr(mm: ModalModel, servo: Servo, modes: int = 2, q: float = 1.0, r:
     (:meth:`ModalModel.feedback_matrix`); check the loop with :meth:`ModalModel.closed_loop`.
 
     Designed on the servo-closed plant (A - B F, B) with the cost
-    J = int( q sum_{j<=modes} (omega_j^2 eta_j^2 + eta_j'^2) + r |u|^2 ) dt: ``q`` weighs twice
+    ``J = int( q sum_{j<=modes} (omega_j^2 eta_j^2 + eta_j'^2) + r u^T u ) dt``: ``q`` weighs twice
     the elastic energy (J) of the first ``modes`` elastic modes, ``r`` the torques (N m)^2.
     The rigid states carry no weight: the servo keeps them.
 
@@ -773,7 +794,8 @@ def damping_lqr(mm: ModalModel, servo: Servo, modes: int = 2, q: float = 1.0, r:
 
     Returns
     -------
-    ndarray (2, nx)
+    ndarray
+        The gain K_x, shape (2, nx).
     """
     modes = _count("modes", modes, 1, mm.n_modes)
     q = _positive("q", q)
@@ -861,17 +883,17 @@ class CycleSimulation:
 
     Attributes
     ----------
-    t : ndarray (N,)
-        Times (s) from crank angle 0.
-    p, v : ndarray (N, n)
-        Deviations from the nominal rigid configuration and their rates (SI).
-    w : ndarray (N, 2)
+    t : ndarray
+        Times (s) from crank angle 0, shape (N,).
+    p, v : ndarray
+        Deviations from the nominal rigid configuration and their rates (SI), shape (N, n).
+    w : ndarray
         Transverse midpoint deflections of L2, L3 relative to the rigid motion at the rotor
-        angles (m).
-    error : ndarray (N, 2)
-        Rotor-angle deviations from the crank laws (rad).
-    torque : ndarray (N, 2)
-        Motor torques: feedforward plus feedback (N m).
+        angles (m), shape (N, 2).
+    error : ndarray
+        Rotor-angle deviations from the crank laws (rad), shape (N, 2).
+    torque : ndarray
+        Motor torques, feedforward plus feedback (N m), shape (N, 2).
     steps_per_period, periods : int
     """
 
