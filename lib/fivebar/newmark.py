@@ -119,6 +119,7 @@ G. M. Hulbert, J. Appl. Mech. 60 (1993) 371-375.
 from __future__ import annotations
 
 import contextlib
+import inspect
 import math
 import warnings
 from collections.abc import Callable
@@ -404,7 +405,7 @@ class SecondOrderSystem(Protocol):
     """What :func:`integrate` needs from a model.
 
     Required methods: ``matrices(t) -> (M, C, K)``, each ``(n, n)`` (SI units of the model),
-    and ``force(t) -> F`` of shape ``(n,)``.  Optional members: ``nonlinear(u) -> (f_nl, K_t)``
+    and ``force(t) -> F`` of shape ``(n,)``.  Optional members: ``nonlinear(u, t) -> (f_nl, K_t)``
     (the internal nonlinear force, shape ``(n,)``, and its Jacobian ``d f_nl / d u``,
     ``(n, n)``), absent or ``None`` for a linear system; ``time_invariant: bool`` (True if
     ``M, C, K`` do not depend on ``t``, so one factorisation serves every step).
@@ -427,7 +428,7 @@ class System:
         Mass, damping and stiffness (SI).  Arrays are constant in time.
     force : None, array_like (n,) or callable ``t -> (n,)``
         External force ``F(t)``; None is zero.
-    nonlinear : None or callable ``u -> (f_nl, K_t)``
+    nonlinear : None or callable ``(u, t) -> (f_nl, K_t)`` or ``u -> (f_nl, K_t)``
         Internal nonlinear force and its tangent ``d f_nl / d u``; None for a linear system.
     """
 
@@ -466,7 +467,10 @@ class System:
             if F.shape != (self.n,):
                 raise ValueError(f"force has shape {F.shape}, expected ({self.n},)")
             self._force = lambda t: F
-        self.nonlinear = nonlinear
+        if nonlinear is not None and _positional_arity(nonlinear) == 1:
+            self.nonlinear = lambda u, t: nonlinear(u)  # time-independent f_nl(u)
+        else:
+            self.nonlinear = nonlinear
 
     def matrices(self, t: float) -> tuple[Array, Array, Array]:
         """``(M, C, K)`` at time ``t`` (s)."""
@@ -476,6 +480,18 @@ class System:
     def force(self, t: float) -> Array:
         """External force ``F(t)``, shape ``(n,)``."""
         return self._force(t)
+
+
+def _positional_arity(f: Callable) -> int:
+    """Number of positional parameters of a callable (2 if it cannot be inspected)."""
+    try:
+        params = inspect.signature(f).parameters.values()
+    except (TypeError, ValueError):
+        return 2
+    kinds = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    if any(p.kind == inspect.Parameter.VAR_POSITIONAL for p in params):
+        return 2
+    return sum(p.kind in kinds for p in params)
 
 
 class PeriodicStepData:
@@ -606,7 +622,7 @@ def consistent_acceleration(system: SecondOrderSystem, t: float, u: ArrayLike,
     rhs = np.asarray(system.force(float(t)), float) - C @ v - K @ u
     nl = getattr(system, "nonlinear", None)
     if nl is not None:
-        rhs = rhs - np.asarray(nl(u)[0], float)
+        rhs = rhs - np.asarray(nl(u, float(t))[0], float)
     try:
         return np.linalg.solve(M, rhs)
     except np.linalg.LinAlgError as exc:
@@ -677,7 +693,7 @@ def integrate(
     Parameters
     ----------
     system : SecondOrderSystem
-        Supplies ``matrices(t)``, ``force(t)`` and optionally ``nonlinear(u)``.
+        Supplies ``matrices(t)``, ``force(t)`` and optionally ``nonlinear(u, t)``.
     u0, v0 : array_like (n,)
         Initial displacement and velocity (SI).
     t0 : float
@@ -835,7 +851,7 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
         fnl0 = np.zeros(n)
         Kt0 = None
     else:
-        fnl0, Kt0 = nl(u)
+        fnl0, Kt0 = nl(u, t0)
         fnl0, Kt0 = np.asarray(fnl0, float), np.asarray(Kt0, float)
     if a0 is None:
         try:
@@ -916,7 +932,7 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
             lu = None
             du_norm = math.inf
             while True:
-                fnl1, Kt1 = nl(u1)
+                fnl1, Kt1 = nl(u1, t)
                 fnl1, Kt1 = np.asarray(fnl1, float), np.asarray(Kt1, float)
                 a1 = (u1 - ut) / bdt2
                 v1 = vt + (g * dt) * a1

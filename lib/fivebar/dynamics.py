@@ -1,0 +1,176 @@
+r"""The time-varying equation of motion (2.7) of the linkage over one period of the motion.
+
+.. math::
+
+    \mathbf M(t)\ddot{\mathbf u} + \mathbf C(t)\dot{\mathbf u} + \mathbf K(t)\mathbf u
+    + \mathbf f_{nl}(\mathbf u, t) = \mathbf P - \mathbf M(t)\ddot{\mathbf u}_r(t) ,
+
+the kineto-elastodynamic equation: the elastic deflections :math:`\mathbf u` ride on the
+rigid motion prescribed by the crank laws and are driven by its inertia
+:math:`-\mathbf M\ddot{\mathbf u}_r` (:meth:`fivebar.assembly.Model.rigid_acceleration`);
+:math:`\mathbf f_{nl} = -\varepsilon` is the geometric nonlinearity (2.8)
+(:mod:`fivebar.nonlinear`).
+
+**What is left out, and why.**  The electromagnetic terms of (2.7),
+:math:`\mathbf K_0\mathbf u`, :math:`(\mathbf K^e_1 + \mathbf K^e_2)\mathbf e` and
+:math:`\mathbf k_0`, act only on the rotors' transverse DOFs :math:`U_1, U_2, U_5, U_6`
+(A.4).  With the shape functions of (A.2) those DOFs do not couple to any other through
+M, C or K (the crank root does not translate), so the rotor whirl is a separate subsystem
+(chapter on electromagnetic coupling) and the linkage's response, Figure 6 included, does not
+depend on it.  This module therefore integrates the *linkage subsystem*: every DOF but the
+four rotor translations (:attr:`LinkageDynamics.keep`).  The subsystem is exactly periodic
+with the period of the crank motion, while the rotor subsystem is forced at the field and
+rotor frequencies, which are not commensurate with it.
+
+**Damping** (an assumption: the paper's ratios were "obtained through experiment" and are not
+printed).  At every instant, every mode of the frozen structure gets the damping ratio
+:math:`\zeta`:
+
+.. math::
+
+    \mathbf C(t) = \mathbf M \boldsymbol\Phi\, \operatorname{diag}(2\zeta\omega_r)\,
+    \boldsymbol\Phi^\top \mathbf M ,\qquad
+    \boldsymbol\Phi^\top\mathbf M\boldsymbol\Phi = \mathbf I,\
+    \boldsymbol\Phi^\top\mathbf K\boldsymbol\Phi = \operatorname{diag}(\omega_r^2)
+
+with :math:`\mathbf M, \mathbf K, \boldsymbol\Phi, \omega_r` those of the instant.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from .assembly import Model, build_model
+from .kinematics import crank_laws, rigid_state
+from .newmark import PeriodicStepData
+from .nonlinear import NonlinearForce
+from .params import Params
+
+__all__ = ["LinkageDynamics", "modal_damping"]
+
+
+def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
+    """C = M Phi diag(2 zeta omega) Phi^T M for one frozen configuration (N s/m)."""
+    w2, Phi = scipy.linalg.eigh(K, M)
+    MPhi = M @ Phi
+    return (MPhi * (2.0 * zeta * np.sqrt(np.clip(w2, 0.0, None)))) @ MPhi.T
+
+
+class LinkageDynamics:
+    """Equation (2.7) of the linkage subsystem, sampled at the S steps of one period.
+
+    ``dyn = LinkageDynamics(params)``; ``dyn.step_data`` feeds
+    :func:`fivebar.newmark.integrate`, and ``dyn`` itself is a
+    :class:`fivebar.newmark.SecondOrderSystem` (matrices at any time, nonlinear force).
+
+    Parameters
+    ----------
+    params
+        Parameter set.
+    crank_speed_rpm
+        Speed of crank AB (r/min); ``None`` takes the parameters' assumption.
+    steps_per_period
+        S of (4.1); ``None`` takes the parameters' (100, section 5).
+    motors
+        Include the motor shafts' torsion (crank roots tied to it); ``False`` clamps the roots.
+    nonlinear
+        Include the geometric nonlinearity f_nl; ``False`` drops it.
+    elements_per_link
+        Mesh (default the paper's 1-2-2-1).
+    P
+        Optional external force on the kept DOFs, a function of time ``t -> (n,)`` (N, N m).
+    """
+
+    def __init__(
+        self,
+        params: Params,
+        crank_speed_rpm: float | None = None,
+        steps_per_period: int | None = None,
+        motors: bool = True,
+        nonlinear: bool = True,
+        elements_per_link: tuple[int, int, int, int] | None = None,
+        P=None,
+    ) -> None:
+        if crank_speed_rpm is not None:
+            params = params.replace(crank_speed_rpm=crank_speed_rpm)
+        S = params.steps_per_period if steps_per_period is None else steps_per_period
+        if isinstance(S, bool) or int(S) != S or S < 2:
+            raise ValueError(f"steps_per_period = {steps_per_period!r} is not allowed: give an integer >= 2")
+        self.params = params
+        self.steps = int(S)
+        self.period = params.period
+        self.dt = self.period / self.steps
+        self.model: Model = build_model(params, elements_per_link=elements_per_link, motors=motors)
+        rotor = {d for i in self.model.motor_dofs for d in self.model.motor_dofs[i][:2]}
+        #: indices (into the model's DOFs) of the linkage subsystem
+        self.keep = np.array([i for i in range(self.model.n) if i not in rotor])
+        self.n = len(self.keep)
+        self._P = P
+        self._nl = NonlinearForce(self.model) if nonlinear else None
+        t = np.arange(self.steps) * self.dt
+        self.t = t
+        M, C, K, F = self._sample(t)
+        self.step_data = PeriodicStepData(M, C, K, F, t0=0.0, period=self.period)
+
+    # --- sampling ------------------------------------------------------------------------------
+    def crank_angles(self, t: ArrayLike) -> tuple[NDArray, NDArray]:
+        """Crank angles theta1, theta4 (rad) at times t (s)."""
+        th1, _, _, th4, _, _ = crank_laws(self.params, t)
+        return th1, th4
+
+    def _sample(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        laws = crank_laws(self.params, t)
+        state = rigid_state(self.params, *laws)
+        M, K = self.model.matrices(laws[0], laws[3])
+        k = self.keep
+        M, K = M[..., k[:, None], k[None, :]], K[..., k[:, None], k[None, :]]
+        ur = self.model.rigid_acceleration(state)[..., k]
+        F = -np.einsum("...ij,...j->...i", M, ur)
+        if self._P is not None:
+            F = F + np.array([np.asarray(self._P(ti), float) for ti in np.atleast_1d(t)]).reshape(F.shape)
+        zeta = self.params.damping_ratio
+        if M.ndim == 2:
+            C = modal_damping(M, K, zeta)
+        else:
+            C = np.array([modal_damping(Mi, Ki, zeta) for Mi, Ki in zip(M, K)])
+        return M, C, K, F
+
+    # --- SecondOrderSystem protocol ---------------------------------------------------------------
+    def matrices(self, t: float) -> tuple[NDArray, NDArray, NDArray]:
+        """(M, C, K) of the linkage subsystem at time t (s)."""
+        M, C, K, _ = self._sample(np.asarray(float(t)))
+        return M, C, K
+
+    def force(self, t: float) -> NDArray:
+        """Right-hand side P - M u_r'' at time t (s)."""
+        return self._sample(np.asarray(float(t)))[3]
+
+    @property
+    def nonlinear(self):
+        """``(u, t) -> (f_nl, K_t)`` on the kept DOFs, or None when the model is linear."""
+        if self._nl is None:
+            return None
+        return self._nonlinear
+
+    def _nonlinear(self, u: NDArray, t: float) -> tuple[NDArray, NDArray]:
+        full = np.zeros(self.model.n)
+        full[self.keep] = u
+        th1, th4 = self.crank_angles(t)
+        f, K = self._nl(full, float(th1), float(th4))
+        k = self.keep
+        return f[k], K[np.ix_(k, k)]
+
+    # --- helpers ------------------------------------------------------------------------------
+    def expand(self, u: ArrayLike) -> NDArray:
+        """Kept-DOF vectors (..., n) -> model vectors (..., model.n), zeros on the rotors."""
+        u = np.asarray(u, float)
+        out = np.zeros(u.shape[:-1] + (self.model.n,))
+        out[..., self.keep] = u
+        return out
+
+    def quasi_static(self, t: ArrayLike) -> NDArray:
+        """Quasi-static deflection K(t)^{-1} F(t) of the linear subsystem (m, rad), (..., n)."""
+        _, _, K, F = self._sample(np.asarray(t, float))
+        return np.linalg.solve(K, F[..., None])[..., 0]

@@ -1,0 +1,299 @@
+r"""The periodic steady state of (2.7): marching, shooting, and Floquet stability.
+
+The paper obtains "the stable dynamic response" by marching the Newmark scheme (4.1)-(4.4)
+from an initial state until the motion repeats (section 4).  Two routes are offered:
+
+* :func:`march`: period after period from a given state, until the change of the state over one
+  period, measured in the energy norm
+  :math:`\|(\Delta\mathbf u, \Delta\dot{\mathbf u})\|^2 = \Delta\mathbf u^\top\mathbf K
+  \Delta\mathbf u + \Delta\dot{\mathbf u}^\top\mathbf M\Delta\dot{\mathbf u}`
+  relative to the largest energy norm of the state over the period, is below ``tol``;
+* :func:`shooting`: Newton's method on the periodicity condition
+  :math:`\mathbf x(T; \mathbf x_0) - \mathbf x_0 = \mathbf 0`, :math:`\mathbf x = (\mathbf u,
+  \dot{\mathbf u})`, with the Jacobian :math:`\boldsymbol\Phi - \mathbf I` from the monodromy
+  matrix :math:`\boldsymbol\Phi = \partial\mathbf x(T)/\partial\mathbf x_0` of the discrete
+  Newmark map (the product of the step tangents).  The eigenvalues of :math:`\boldsymbol\Phi` at
+  the periodic orbit are its Floquet multipliers: the orbit is asymptotically stable when all
+  lie inside the unit circle.
+
+The average-acceleration rule does not damp modes far above :math:`1/\Delta t` (the links'
+axial modes, the curvature DOFs): their one-step amplification tends to :math:`-1`, so over an
+even number of steps their multiplier approaches :math:`+1` and :math:`\mathbf I -
+\boldsymbol\Phi` becomes ill-conditioned; heavily damped stiff modes behave alike.  The shooting
+Newton step is therefore solved in the least-squares sense, and a dissipative scheme
+(:class:`fivebar.newmark.GeneralizedAlpha`) can be passed instead of the paper's rule.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from .dynamics import LinkageDynamics
+from .elements import shape_functions
+from .kinematics import LINKS
+from .newmark import Newmark, Scheme, integrate
+from .params import Params
+
+__all__ = ["SteadyState", "SteadyStateError", "march", "shooting", "steady_state"]
+
+_DIRECTIONS = ("transverse", "longitudinal", "chord")
+
+
+class SteadyStateError(RuntimeError):
+    """The periodic steady state was not reached within the allowed periods or iterations."""
+
+
+@dataclass
+class SteadyState:
+    """One steady period of the linkage's elastic response.
+
+    Attributes
+    ----------
+    dynamics
+        The :class:`~fivebar.dynamics.LinkageDynamics` that was solved.
+    t
+        Times (s) of the S + 1 samples, from crank angle 0 to one period.
+    u, v
+        Elastic displacements and velocities of the linkage subsystem, (S + 1, n) (SI).
+    method
+        "shooting" or "march".
+    periods
+        Periods integrated (march: to reach the tolerance; shooting: in all, Newton included).
+    floquet_multipliers
+        Eigenvalues of the monodromy matrix at the orbit (shooting only), largest first.
+    """
+
+    dynamics: LinkageDynamics
+    t: NDArray
+    u: NDArray
+    v: NDArray
+    method: str
+    periods: int
+    floquet_multipliers: NDArray | None = None
+    residual: float = float("nan")
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def crank_angle(self) -> NDArray:
+        """Angle of crank AB (deg) from its initial angle, at the samples."""
+        return np.degrees(self.t * self.dynamics.params.crank_speed)
+
+    @property
+    def stable(self) -> bool | None:
+        """True if every Floquet multiplier lies inside the unit circle (None after a march)."""
+        if self.floquet_multipliers is None:
+            return None
+        return bool(np.abs(self.floquet_multipliers).max() < 1.0)
+
+    def _angles(self):
+        return self.dynamics.crank_angles(self.t)
+
+    def midpoint(self, link: str, direction: str = "transverse") -> NDArray:
+        """Elastic displacement of the midpoint of a link over the period (mm).
+
+        Parameters
+        ----------
+        link
+            "L1", "L2", "L3" or "L4" (Figure 6 shows L2 and L3).
+        direction
+            "transverse": the midpoint's elastic displacement projected on the link's normal
+            (the left normal of B to C for L2, C to D for L3); it includes the elastic motion
+            of the link's end joints.  "longitudinal": projected on the link's axis.  "chord":
+            the transverse deflection relative to the chord through the link's deflected ends
+            (pure bending, what a mid-span strain gauge senses).
+        """
+        if link not in LINKS:
+            raise ValueError(f"link = {link!r} is not allowed: use one of {list(LINKS)}")
+        if direction not in _DIRECTIONS:
+            raise ValueError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
+        m = self.dynamics.model
+        U = self.dynamics.expand(self.u)
+        th1, th4 = self._angles()
+        ax, tr = m.link_displacement(U, th1, th4, link, 0.5)
+        if direction == "longitudinal":
+            return 1e3 * ax
+        if direction == "transverse":
+            return 1e3 * tr
+        _, tr0 = m.link_displacement(U, th1, th4, link, 0.0)
+        _, tr1 = m.link_displacement(U, th1, th4, link, 1.0)
+        return 1e3 * (tr - 0.5 * (tr0 + tr1))
+
+    def peak_to_peak(self, link: str, direction: str = "transverse") -> float:
+        """Peak-to-peak value (mm) of :meth:`midpoint` over the period."""
+        y = self.midpoint(link, direction)
+        return float(y.max() - y.min())
+
+    def bending_stress(self, points: int = 11) -> dict[str, float]:
+        """Peak bending stress (Pa) of each link over the period.
+
+        sigma = E (d/2) |w''| with d the in-plane depth of the section (assumption
+        ``bending_depth``), w'' the elastic curvature evaluated at ``points`` points of every
+        element and at every sample of the period.
+        """
+        key = ("stress", points)
+        if key not in self._cache:
+            dyn = self.dynamics
+            m, p = dyn.model, dyn.params
+            th1, th4 = self._angles()
+            q = m.element_displacements(dyn.expand(self.u), th1, th4)  # (S+1, nel, 8)
+            out: dict[str, float] = {}
+            for i, el in enumerate(m.elements):
+                N2 = shape_functions(np.linspace(0.0, el.length, points), el.length, derivative=2)
+                N2[:, [0, 4]] = 0.0
+                kappa = np.abs(q[:, i, :] @ N2.T).max()
+                out[el.link] = max(out.get(el.link, 0.0), p.E * 0.5 * p.bending_depth * kappa)
+            self._cache[key] = out
+        return dict(self._cache[key])
+
+
+def _energy_norm(dyn: LinkageDynamics, u: NDArray, v: NDArray) -> NDArray:
+    sd = dyn.step_data
+    M, K = sd.M[0], sd.K[0]
+    return np.sqrt(np.einsum("...i,ij,...j->...", u, K, u) + np.einsum("...i,ij,...j->...", v, M, v))
+
+
+def _initial_state(dyn: LinkageDynamics) -> tuple[NDArray, NDArray]:
+    """Quasi-static state at t = 0: u = K^-1 F, v = d/dt of it (central difference)."""
+    h = dyn.dt
+    us = dyn.quasi_static(np.array([-h, 0.0, h]))
+    return us[1], (us[2] - us[0]) / (2 * h)
+
+
+def _period(dyn, u0, v0, scheme, store="all", sensitivity=False, rtol=1e-10, max_iter=20):
+    return integrate(
+        dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, step_data=dyn.step_data, store=store,
+        sensitivity=sensitivity, rtol=rtol, max_iter=max_iter, newton="modified",
+    )
+
+
+def march(
+    dyn: LinkageDynamics,
+    u0: NDArray | None = None,
+    v0: NDArray | None = None,
+    tol: float = 1e-6,
+    max_periods: int = 2000,
+    scheme: Scheme | None = None,
+) -> SteadyState:
+    """March period by period until the state repeats to ``tol`` (relative, energy norm).
+
+    ``u0, v0`` default to rest (zeros).  Raises :class:`SteadyStateError` after
+    ``max_periods`` periods, naming the last relative change.
+    """
+    if not tol > 0:
+        raise ValueError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
+    scheme = Newmark() if scheme is None else scheme
+    u = np.zeros(dyn.n) if u0 is None else np.asarray(u0, float)
+    v = np.zeros(dyn.n) if v0 is None else np.asarray(v0, float)
+    change = np.inf
+    for k in range(1, max_periods + 1):
+        res = _period(dyn, u, v, scheme)
+        scale = _energy_norm(dyn, res.u, res.v).max()
+        change = float(_energy_norm(dyn, res.u[-1] - u, res.v[-1] - v)) / max(scale, 1e-300)
+        u, v = res.u[-1], res.v[-1]
+        if change <= tol:
+            return SteadyState(dyn, res.t, res.u, res.v, "march", k, residual=change)
+    raise SteadyStateError(
+        f"no periodic steady state after {max_periods} periods: the last relative change over "
+        f"one period was {change:.3e} (tolerance {tol:.1e})"
+    )
+
+
+def shooting(
+    dyn: LinkageDynamics,
+    u0: NDArray | None = None,
+    v0: NDArray | None = None,
+    tol: float = 1e-10,
+    max_iter: int = 10,
+    scheme: Scheme | None = None,
+) -> SteadyState:
+    """Newton's method on the periodicity condition, with the Newmark monodromy matrix.
+
+    ``u0, v0`` default to the quasi-static state at t = 0.  Converged when the relative
+    periodicity residual (energy norm) is below ``tol``.  The returned state carries the
+    Floquet multipliers of the orbit.
+    """
+    if not tol > 0:
+        raise ValueError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
+    scheme = Newmark() if scheme is None else scheme
+    if u0 is None or v0 is None:
+        us, vs = _initial_state(dyn)
+        u0 = us if u0 is None else u0
+        v0 = vs if v0 is None else v0
+    n = dyn.n
+    x = np.concatenate([np.asarray(u0, float), np.asarray(v0, float)])
+    mode = "uv" if scheme.is_newmark else "uva"
+    sd = dyn.step_data
+    D = np.sqrt(np.concatenate([np.diag(sd.K[0]), np.diag(sd.M[0])]))
+    r = np.inf
+    for it in range(1, max_iter + 1):
+        res = _period(dyn, x[:n], x[n:], scheme, sensitivity=mode)
+        Phi = res.monodromy[: 2 * n, : 2 * n] if mode == "uv" else _uv_monodromy(dyn, res.monodromy, n)
+        xT = np.concatenate([res.u[-1], res.v[-1]])
+        scale = _energy_norm(dyn, res.u, res.v).max()
+        r = float(_energy_norm(dyn, xT[:n] - x[:n], xT[n:] - x[n:])) / max(scale, 1e-300)
+        if r <= tol:
+            mult = scipy.linalg.eigvals(Phi)
+            mult = mult[np.argsort(-np.abs(mult))]
+            return SteadyState(dyn, res.t, res.u, res.v, "shooting", it, mult, residual=r)
+        # Newton step on the periodicity condition, scaled so that every DOF counts by its
+        # energy (the state mixes metres, radians and curvatures)
+        A = D[:, None] * (Phi - np.eye(2 * n)) / D[None, :]
+        y = scipy.linalg.lstsq(A, -D * (xT - x), cond=1e-14)[0]
+        x = x + y / D
+    raise SteadyStateError(
+        f"shooting did not converge in {max_iter} Newton iterations: relative periodicity "
+        f"residual {r:.3e} (tolerance {tol:.1e})"
+    )
+
+
+def _uv_monodromy(dyn: LinkageDynamics, Phi3: NDArray, n: int) -> NDArray:
+    """Reduce d(u, v, a)_T / d(u, v, a)_0 to (u, v) with a_0 consistent with the equation."""
+    sd = dyn.step_data
+    M, C, K = sd.M[0], sd.C[0], sd.K[0]
+    da = -np.linalg.solve(M, np.hstack([K, C]))  # d a0 / d(u0, v0), linear part
+    E = np.vstack([np.eye(2 * n), da])
+    return (Phi3 @ E)[: 2 * n]
+
+
+def steady_state(
+    params: Params,
+    method: str = "shooting",
+    steps_per_period: int = 100,
+    crank_speed_rpm: float | None = None,
+    motors: bool = True,
+    nonlinear: bool = True,
+    scheme: Scheme | None = None,
+    elements_per_link: tuple[int, int, int, int] | None = None,
+) -> SteadyState:
+    """The periodic steady state of the linkage over one period of the motion.
+
+    ``res = steady_state(params)``; ``res.midpoint("L2", "transverse")`` (mm over the
+    ``steps_per_period + 1`` samples from crank angle 0), ``res.floquet_multipliers``,
+    ``res.bending_stress()`` (Pa, per link).
+
+    Parameters
+    ----------
+    method
+        "shooting" (Newton on periodicity, with Floquet multipliers) or "march" (period by
+        period from rest).
+    steps_per_period
+        S of (4.1) (section 5: 100).
+    crank_speed_rpm
+        Speed of both cranks (r/min); ``None`` takes the parameter file's assumption.
+    motors
+        ``False`` clamps the crank roots and leaves the motor elements out.
+    nonlinear
+        ``False`` drops the geometric nonlinearity f_nl.
+    scheme
+        Time integrator (default the average-acceleration Newmark rule).
+    """
+    if method not in ("shooting", "march"):
+        raise ValueError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
+    dyn = LinkageDynamics(params, crank_speed_rpm, steps_per_period, motors, nonlinear, elements_per_link)
+    if method == "shooting":
+        return shooting(dyn, scheme=scheme)
+    return march(dyn, scheme=scheme)

@@ -1,0 +1,119 @@
+"""The equation (2.7) of the linkage and its periodic steady state, against independent
+references: scipy's Radau integrator, the quasi-static limit, scaling with speed, and the
+agreement of marching and shooting."""
+
+import numpy as np
+import pytest
+import scipy.integrate
+
+from fivebar import load_params
+from fivebar.dynamics import LinkageDynamics, modal_damping
+from fivebar.newmark import GeneralizedAlpha, Newmark
+from fivebar.steady import SteadyState, SteadyStateError, march, shooting, steady_state
+
+P = load_params()
+
+
+def test_modal_damping_gives_the_ratio_in_every_mode():
+    d = LinkageDynamics(P, nonlinear=False, steps_per_period=4)
+    M, C, K = d.step_data.M[1], d.step_data.C[1], d.step_data.K[1]
+    import scipy.linalg
+
+    w2, Phi = scipy.linalg.eigh(K, M)
+    modal = Phi.T @ C @ Phi
+    assert np.allclose(np.diag(modal), 2 * P.damping_ratio * np.sqrt(w2), rtol=1e-8)
+    off = modal - np.diag(np.diag(modal))
+    assert np.abs(off).max() < 1e-8 * np.abs(np.diag(modal)).max()
+    assert np.allclose(modal_damping(M, K, 0.0), 0.0)
+
+
+def test_rotor_dofs_are_decoupled_and_left_out():
+    d = LinkageDynamics(P, nonlinear=False, steps_per_period=4)
+    m = d.model
+    M, K = m.matrices(0.3, 1.2)
+    rotor = [i for i in range(m.n) if i not in d.keep]
+    assert [m.dofs[i].kind for i in rotor] == ["rotor_x", "rotor_y"] * 2
+    assert np.all(M[np.ix_(rotor, d.keep)] == 0) and np.all(K[np.ix_(rotor, d.keep)] == 0)
+
+
+def test_newmark_against_radau_on_the_full_model():
+    """From a state on the steady orbit, the average-acceleration rule (S = 1600) and scipy's
+    Radau (rtol 1e-7) give the same midpoint motion.  The window is 2 % of a period: the
+    model's stiffest mode (about 1.2e5 rad/s) makes Radau slow, while Newmark steps over it."""
+    d = LinkageDynamics(P, nonlinear=False, steps_per_period=1600)
+    ss = shooting(d)
+    n = d.n
+
+    def rhs(t, x):
+        M, C, K, F = d._sample(np.asarray(t))
+        return np.concatenate([x[n:], np.linalg.solve(M, F - C @ x[n:] - K @ x[:n])])
+
+    def jac(t, x):
+        M, C, K = d.matrices(t)
+        J = np.zeros((2 * n, 2 * n))
+        J[:n, n:] = np.eye(n)
+        J[n:, :n] = -np.linalg.solve(M, K)
+        J[n:, n:] = -np.linalg.solve(M, C)
+        return J
+
+    ts = ss.t[:33:8]
+    x0 = np.concatenate([ss.u[0], ss.v[0]])
+    sol = scipy.integrate.solve_ivp(rhs, (0, ts[-1]), x0, method="Radau", t_eval=ts, rtol=1e-7, atol=1e-13, jac=jac)
+    assert sol.success
+    radau = SteadyState(d, ts, sol.y[:n].T, sol.y[n:].T, "radau", 1)
+    for link in ("L2", "L3"):
+        err = np.abs(ss.midpoint(link)[:33:8] - radau.midpoint(link)).max()
+        assert err < 1e-5 * ss.peak_to_peak(link)
+
+
+def test_quasi_static_limit_and_speed_scaling():
+    """At low speed the inertial load is slow: the response is the quasi-static deflection
+    K^-1 F (an independent linear solve), and it scales with the square of the speed."""
+    slow = P.replace(crank_speed_rpm=3.0)
+    d = LinkageDynamics(slow, nonlinear=False, steps_per_period=100)
+    ss = shooting(d)
+    us = d.quasi_static(ss.t)
+    assert np.abs(ss.u - us).max() < 1e-3 * np.abs(us).max()
+    pp = [steady_state(P, crank_speed_rpm=w, nonlinear=False, scheme=GeneralizedAlpha(0.9)).peak_to_peak("L3") for w in (3.0, 6.0)]
+    assert pp[1] / pp[0] == pytest.approx(4.0, rel=2e-3)
+
+
+def test_march_reaches_the_shooting_orbit_with_a_stable_scheme():
+    d = LinkageDynamics(P, nonlinear=False, steps_per_period=100)
+    sch = GeneralizedAlpha(0.8)
+    sh = shooting(d, scheme=sch)
+    assert sh.stable
+    mr = march(d, scheme=sch, tol=1e-9)
+    assert mr.periods > 1
+    for link in ("L2", "L3"):
+        assert np.allclose(mr.midpoint(link), sh.midpoint(link), atol=1e-6 * sh.peak_to_peak(link))
+
+
+def test_paper_rule_at_S100_gives_an_unstable_discrete_orbit():
+    """The average-acceleration rule is unconditionally stable only for constant matrices; with
+    the links' rotating stiff modes and S = 100 the discrete periodic orbit is unstable, and a
+    finer step or numerical dissipation restores stability (the book's Newmark chapter)."""
+    d = LinkageDynamics(P, nonlinear=False, steps_per_period=100)
+    sh = shooting(d, scheme=Newmark())
+    assert sh.stable is False and np.abs(sh.floquet_multipliers[0]) > 10
+    with pytest.raises(SteadyStateError, match="no periodic steady state after 20 periods"):
+        march(d, scheme=Newmark(), max_periods=20)
+    ref = shooting(LinkageDynamics(P, nonlinear=False, steps_per_period=1600))
+    assert ref.stable
+    # the unstable S = 100 orbit is nonetheless an accurate one
+    assert sh.peak_to_peak("L2") == pytest.approx(ref.peak_to_peak("L2"), rel=3e-3)
+
+
+def test_directions_and_errors():
+    ss = steady_state(P, nonlinear=False, scheme=GeneralizedAlpha(0.8), steps_per_period=50)
+    assert ss.midpoint("L2").shape == (51,) and ss.crank_angle[-1] == pytest.approx(360.0)
+    # pure bending is smaller than the total transverse motion (which carries the joints)
+    assert ss.peak_to_peak("L2", "chord") < ss.peak_to_peak("L2", "transverse")
+    with pytest.raises(ValueError, match="direction = 'sideways'"):
+        ss.midpoint("L2", "sideways")
+    with pytest.raises(ValueError, match="link = 'L5'"):
+        ss.midpoint("L5")
+    with pytest.raises(ValueError, match="method = 'euler'"):
+        steady_state(P, method="euler")
+    with pytest.raises(ValueError, match="steps_per_period = 1"):
+        LinkageDynamics(P, steps_per_period=1)
