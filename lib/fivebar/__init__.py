@@ -8,21 +8,34 @@ controllable close-chain linkage mechanism system*, Mathematical Problems in Eng
 The facade below is what the chapters use; the modules hold the rest.
 """
 
+from .control import linear_model
 from .elements import beam_element, motor_element
 from .kinematics import GeometryError, positions
 from .modal import natural_frequencies
+from .newmark import GeneralizedAlpha, HHT, Newmark, NewtonConvergenceError, UnstableParametersError, integrate
 from .params import DEFAULT_PARAMS_PATH, Motor, ParameterError, Params, load_params
+from .steady import SteadyState, SteadyStateError, steady_state
 
 __all__ = [
     "DEFAULT_PARAMS_PATH",
+    "GeneralizedAlpha",
     "GeometryError",
+    "HHT",
     "Motor",
+    "Newmark",
+    "NewtonConvergenceError",
     "ParameterError",
     "Params",
+    "SteadyState",
+    "SteadyStateError",
+    "UnstableParametersError",
     "beam_element",
+    "integrate",
+    "linear_model",
     "load_params",
     "motor_element",
     "natural_frequencies",
     "positions",
+    "steady_state",
 ]
 __version__ = "0.1.0"
