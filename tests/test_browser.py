@@ -167,6 +167,50 @@ def test_mathjax_is_served_from_the_build(book):
             f"{page.relative_to(book)} does not load the local MathJax"
 
 
+def _extension():
+    """The book's local Sphinx extension, imported from book/_ext."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "fivebar_book", ROOT / "book" / "_ext" / "fivebar_book.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize(
+    "text, cited",
+    [("eq. (A.6)", {"A.6"}),
+     ("(A.9)-(A.12) and (2.7)", {"A.9", "A.10", "A.11", "A.12", "2.7"}),
+     ("(3.1)–(3.3)", {"3.1", "3.2", "3.3"}),
+     ("(2.10) then (4.4)", {"2.10", "4.4"}),
+     ("(A.9)-(2.3)", {"A.9", "2.3"}),  # not a range: different sections
+     ("f(1.5), (5.2), x (A) . 3, version (0.1)", set())],
+)
+def test_equation_citations_are_read_as_written(text, cited):
+    assert _extension().cited_equations(text) == cited
+
+
+def test_generated_pages_are_complete(book):
+    """The equation index has every equation of the paper, the errata every entry."""
+    import tomllib
+
+    def rows(page: str, cls: str) -> int:
+        html = (book / "book" / page).read_text(encoding="utf-8")
+        table = re.search(rf'<table class="{cls}[^"]*".*?</table>', html, re.S)
+        assert table, f"no table {cls} in {page}"
+        return len(re.findall(r"<tr", table.group(0))) - 1  # minus the header row
+
+    paper = 10 + 7 + 4 + 12  # (2.1)-(2.10), (3.1)-(3.7), (4.1)-(4.4), (A.1)-(A.12)
+    assert rows("equations.html", "fivebar-equations") == paper
+    with open(ROOT / "data" / "errata.toml", "rb") as fh:
+        errata = tomllib.load(fh)["erratum"]
+    assert rows("errata.html", "fivebar-errata") == len(errata)
+    with open(ROOT / "data" / "wang2011.toml", "rb") as fh:
+        assumptions = tomllib.load(fh)["assumptions"]
+    assert rows("errata.html", "fivebar-assumptions") == len(assumptions)
+
+
 def test_every_library_module_is_in_the_api_reference():
     api = (ROOT / "book" / "api.md").read_text(encoding="utf-8")
     documented = set(re.findall(r"automodule::\s*(fivebar\.\w+)", api))

@@ -250,8 +250,11 @@ def cited_equations(text: str) -> set[str]:
     for m in _CITE.finditer(text or ""):
         sec, first = m.group(1), int(m.group(2))
         last = first
-        if m.group(3) == sec and m.group(4) is not None and int(m.group(4)) >= first:
-            last = int(m.group(4))
+        if m.group(4) is not None:
+            if m.group(3) == sec and int(m.group(4)) >= first:
+                last = int(m.group(4))
+            else:  # "(A.9)-(2.3)" is two citations, not a range
+                found.add(f"{m.group(3)}.{int(m.group(4))}")
         found.update(f"{sec}.{k}" for k in range(first, last + 1))
     return found
 
