@@ -85,7 +85,8 @@ def positions(params: Params, theta1: ArrayLike, theta4: ArrayLike, mode: int = 
     Raises
     ------
     GeometryError
-        If |BD| is outside [|L2 - L3|, L2 + L3]; the message names the crank angles and |BD|.
+        If the distance BD is outside [abs(L2 - L3), L2 + L3]; the message names the crank
+        angles and the distance BD.
     """
     _check_mode(mode)
     t1, t4 = np.broadcast_arrays(np.asarray(theta1, float), np.asarray(theta4, float))

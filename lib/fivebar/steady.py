@@ -130,7 +130,7 @@ class SteadyState:
     def bending_stress(self, points: int = 11) -> dict[str, float]:
         """Peak bending stress (Pa) of each link over the period.
 
-        sigma = E (d/2) |w''| with d the in-plane depth of the section (assumption
+        sigma = E (d/2) abs(w'') with d the in-plane depth of the section (assumption
         ``bending_depth``), w'' the elastic curvature evaluated at ``points`` points of every
         element and at every sample of the period.
         """
