@@ -117,3 +117,33 @@ def test_directions_and_errors():
         steady_state(P, method="euler")
     with pytest.raises(ValueError, match="steps_per_period = 1"):
         LinkageDynamics(P, steps_per_period=1)
+
+
+def test_nonlinear_force_at_step_times_equals_the_direct_evaluation():
+    """f_nl(u, t) looks the configuration up at the S step times (and at their images in later
+    periods) and computes it elsewhere; both agree with NonlinearForce on the full model at the
+    crank angles of t."""
+    from fivebar.nonlinear import NonlinearForce
+
+    d = LinkageDynamics(P, steps_per_period=40)
+    full = NonlinearForce(d.model)
+    rng = np.random.default_rng(11)
+    for t in (0.0, 7 * d.dt, 39 * d.dt, 40 * d.dt, 93 * d.dt, 2.5 * d.dt, 0.3217 * d.period):
+        u = rng.normal(size=d.n) * 1e-3
+        f, K = d.nonlinear(u, t)
+        th1, th4 = d.crank_angles(t)
+        f0, K0 = full(d.expand(u), float(th1), float(th4))
+        k = d.keep
+        assert np.allclose(f, f0[k], rtol=1e-12, atol=1e-12 * np.abs(f0).max())
+        assert np.allclose(K, K0[np.ix_(k, k)], rtol=1e-12, atol=1e-12 * np.abs(K0).max())
+    with pytest.raises(ValueError, match="linear"):
+        LinkageDynamics(P, steps_per_period=4, nonlinear=False).nonlinear_geometry(0.0)
+
+
+def test_batched_modal_damping_equals_the_one_configuration_path():
+    d = LinkageDynamics(P, nonlinear=False, steps_per_period=8)
+    M, K = d.step_data.M, d.step_data.K
+    C = modal_damping(M, K, 0.03)
+    for k in range(8):
+        Ck = modal_damping(M[k], K[k], 0.03)
+        assert np.allclose(C[k], Ck, rtol=1e-8, atol=1e-10 * np.abs(Ck).max())

@@ -87,3 +87,63 @@ def test_rigid_rotation_of_a_straight_element_has_the_exact_strain():
     assert abs(eps) < phi**4
     total = element_energy(q, L, EA) + 0.5 * EA * Vp**2 * L
     assert total == pytest.approx(0.5 * EA * eps**2 * L, rel=1e-9)
+
+
+def _loop_reference(m, u, th1, th4):
+    """The assembled force by an element loop: rotate, element_force, rotate back, scatter."""
+    from fivebar.kinematics import link_angles
+
+    betas = m.element_angles(link_angles(m.params, th1, th4))
+    up = np.append(u, 0.0)
+    f = np.zeros(m.n + 1)
+    K = np.zeros((m.n + 1, m.n + 1))
+    for el, beta in zip(m.elements, betas):
+        idx = np.array(el.dofs)
+        R = m._rotations(np.asarray(beta))
+        fl, Kl = element_force(R @ up[idx], el.length, P.E * P.A)
+        f[idx] += R.T @ fl
+        K[np.ix_(idx, idx)] += R.T @ Kl @ R
+    return f[: m.n], K[: m.n, : m.n]
+
+
+@pytest.mark.parametrize("epl", [None, (1, 2, 3, 2)])
+def test_vectorised_force_equals_the_element_loop(epl):
+    """The batched evaluation (slope and stretch operators in the global DOFs) against the
+    element-by-element rotation and assembly of element_force."""
+    m = build_model(P, elements_per_link=epl)
+    nl = NonlinearForce(m)
+    for th1, th4 in ((0.8, -2.1), (3.0, 1.0)):
+        u = rng.normal(size=m.n) * 1e-3
+        f, K = nl(u, th1, th4)
+        f0, K0 = _loop_reference(m, u, th1, th4)
+        assert np.allclose(f, f0, rtol=1e-12, atol=1e-13 * np.abs(f0).max())
+        assert np.allclose(K, K0, rtol=1e-12, atol=1e-13 * np.abs(K0).max())
+
+
+def test_geometry_sampled_kept_dofs_and_errors():
+    """A geometry sampled over arrays of angles gives, instant by instant, the force at the
+    scalar angles; a DOF subset gives the restriction of the full force with the other DOFs
+    held at zero."""
+    m = build_model(P)
+    nl = NonlinearForce(m)
+    th1 = np.linspace(0.0, 2 * np.pi, 7)
+    th4 = 0.3 + 2 * th1
+    geom = nl.geometry(th1, th4)
+    u = rng.normal(size=m.n) * 1e-3
+    for k in (0, 3, 6):
+        f, K = nl.evaluate(u, geom.at(k))
+        f0, K0 = nl(u, th1[k], th4[k])
+        assert np.array_equal(f, f0) and np.array_equal(K, K0)
+    keep = np.array([i for i in range(m.n) if i % 5 != 2])
+    sub = NonlinearForce(m, keep=keep)
+    u0 = np.zeros(m.n)
+    u0[keep] = u[keep]
+    f, K = sub(u[keep], 0.4, 1.1)
+    f0, K0 = nl(u0, 0.4, 1.1)
+    assert np.allclose(f, f0[keep], rtol=1e-12, atol=1e-14 * np.abs(f0).max())
+    assert np.allclose(K, K0[np.ix_(keep, keep)], rtol=1e-12, atol=1e-14 * np.abs(K0).max())
+    assert sub.energy(u[keep], 0.4, 1.1) == pytest.approx(nl.energy(u0, 0.4, 1.1), rel=1e-12)
+    with pytest.raises(ValueError, match="keep = "):
+        NonlinearForce(m, keep=[0, 0, 1])
+    with pytest.raises(ValueError, match="u has shape"):
+        nl(np.zeros(m.n + 1), 0.0, 0.0)

@@ -44,18 +44,32 @@ from numpy.typing import ArrayLike, NDArray
 
 from .assembly import Model, build_model
 from .kinematics import crank_laws, rigid_state
-from .newmark import PeriodicStepData
-from .nonlinear import NonlinearForce
+from .newmark import PeriodicStepData, _blas_threads
+from .nonlinear import ElementGeometry, NonlinearForce
 from .params import Params
 
 __all__ = ["LinkageDynamics", "modal_damping"]
 
 
 def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
-    """C = M Phi diag(2 zeta omega) Phi^T M for one frozen configuration (N s/m)."""
-    w2, Phi = scipy.linalg.eigh(K, M)
-    MPhi = M @ Phi
-    return (MPhi * (2.0 * zeta * np.sqrt(np.clip(w2, 0.0, None)))) @ MPhi.T
+    """C = M Phi diag(2 zeta omega) Phi^T M for one frozen configuration (N s/m).
+
+    ``M, K`` of shape ``(n, n)``, or stacks ``(..., n, n)`` of configurations (then the
+    generalised eigenproblems are solved together: Cholesky ``M = L L^T``, the symmetric
+    eigenproblem of ``L^-1 K L^-T = V diag(omega^2) V^T``, and ``M Phi = L V``).
+    """
+    M, K = np.asarray(M, float), np.asarray(K, float)
+    if M.ndim == 2:
+        w2, Phi = scipy.linalg.eigh(K, M)
+        MPhi = M @ Phi
+    else:
+        L = np.linalg.cholesky(M)
+        X = np.linalg.solve(L, K)  # L^-1 K
+        A = np.linalg.solve(L, np.swapaxes(X, -1, -2))  # L^-1 K L^-T
+        w2, V = np.linalg.eigh(0.5 * (A + np.swapaxes(A, -1, -2)))
+        MPhi = L @ V
+    MPhi_w = MPhi * (2.0 * zeta * np.sqrt(np.clip(w2, 0.0, None)))[..., None, :]
+    return MPhi_w @ np.swapaxes(MPhi, -1, -2)
 
 
 class LinkageDynamics:
@@ -108,10 +122,14 @@ class LinkageDynamics:
         self.keep = np.array([i for i in range(self.model.n) if i not in rotor])
         self.n = len(self.keep)
         self._P = P
-        self._nl = NonlinearForce(self.model) if nonlinear else None
+        self._nl = NonlinearForce(self.model, keep=self.keep) if nonlinear else None
         t = np.arange(self.steps) * self.dt
         self.t = t
-        M, C, K, F = self._sample(t)
+        with _blas_threads(1):  # many small dense problems: threaded BLAS only adds overhead
+            M, C, K, F = self._sample(t)
+            # the nonlinear force's view of the configuration at the S step times (the element
+            # rotations), so that f_nl(u, t) at a step time does no kinematics
+            self._geometry = None if self._nl is None else self._nl.geometry(*self.crank_angles(t))
         self.step_data = PeriodicStepData(M, C, K, F, t0=0.0, period=self.period)
 
     # --- sampling ------------------------------------------------------------------------------
@@ -130,11 +148,7 @@ class LinkageDynamics:
         F = -np.einsum("...ij,...j->...i", M, ur)
         if self._P is not None:
             F = F + np.array([np.asarray(self._P(ti), float) for ti in np.atleast_1d(t)]).reshape(F.shape)
-        zeta = self.params.damping_ratio
-        if M.ndim == 2:
-            C = modal_damping(M, K, zeta)
-        else:
-            C = np.array([modal_damping(Mi, Ki, zeta) for Mi, Ki in zip(M, K)])
+        C = modal_damping(M, K, self.params.damping_ratio)
         return M, C, K, F
 
     # --- SecondOrderSystem protocol ---------------------------------------------------------------
@@ -155,12 +169,22 @@ class LinkageDynamics:
         return self._nonlinear
 
     def _nonlinear(self, u: NDArray, t: float) -> tuple[NDArray, NDArray]:
-        full = np.zeros(self.model.n)
-        full[self.keep] = u
+        return self._nl.evaluate(np.asarray(u, float), self.nonlinear_geometry(t))
+
+    def nonlinear_geometry(self, t: float) -> ElementGeometry:
+        """The configuration at time t (s) as the nonlinear force sees it.
+
+        At the step times ``k dt`` (modulo the period) it is looked up from the S instants
+        sampled at construction; at any other time it is computed from the crank angles.
+        """
+        if self._nl is None:
+            raise ValueError("the model is linear (nonlinear=False): it has no nonlinear force")
+        x = float(t) / self.dt
+        k = round(x)
+        if abs(x - k) <= 1e-9 * max(1.0, abs(x)):
+            return self._geometry.at(k % self.steps)
         th1, th4 = self.crank_angles(t)
-        f, K = self._nl(full, float(th1), float(th4))
-        k = self.keep
-        return f[k], K[np.ix_(k, k)]
+        return self._nl.geometry(float(th1), float(th4))
 
     # --- helpers ------------------------------------------------------------------------------
     def expand(self, u: ArrayLike) -> NDArray:
