@@ -191,6 +191,15 @@ def test_equation_citations_are_read_as_written(text, cited):
     assert _extension().cited_equations(text) == cited
 
 
+def test_absolute_value_bars_are_escaped_in_prose_only():
+    lines = ["error |a - b| / |b|, ``|x|`` and :math:`|x|` stay", ".. math::", "",
+             "    |x| = 1", "", "Example::", "", "    y = |z|", "", "then |w''|", ">>> f()  # |x|"]
+    _extension()._escape_bars(None, "function", "f", None, None, lines)
+    assert lines == [r"error \|a - b\| / \|b\|, ``|x|`` and :math:`|x|` stay", ".. math::", "",
+                     "    |x| = 1", "", "Example::", "", "    y = |z|", "", r"then \|w''\|",
+                     ">>> f()  # |x|"]
+
+
 def test_generated_pages_are_complete(book):
     """The equation index has every equation of the paper, the errata every entry."""
     import tomllib
@@ -314,8 +323,11 @@ _INSPECT_PAGE = """() => {
         inline_untypeset: bad('span.math')
             .filter(el => !el.querySelector('mjx-container'))
             .map(el => el.textContent.trim().slice(0, 80)),
-        tex_errors: bad('mjx-merror, [data-mjx-error]')
-            .map(el => (el.getAttribute('data-mjx-error') || el.textContent).slice(0, 80)),
+        tex_errors: (window.MathJax && MathJax.startup && MathJax.startup.document
+                     ? Array.from(MathJax.startup.document.math) : [])
+            .filter(item => item.typesetRoot && item.typesetRoot.querySelector
+                    && item.typesetRoot.querySelector('mjx-merror, [data-mjx-error]'))
+            .map(item => item.math.slice(0, 80)),
         downloads: bad('a.btn-download-source-button, a[href$=".ipynb"]')
             .map(a => a.href),
     };

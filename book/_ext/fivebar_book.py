@@ -433,6 +433,37 @@ def _restore_raw_doc(app: Sphinx, what: str, name: str, obj: Any, options: Any,
         lines[:] = _RAW_DOCS.pop((what, name))
 
 
+#: ``|x|`` in running text: reST reads it as a substitution reference (an error), numpydoc
+#: authors mean an absolute value.
+_BARS = re.compile(r"(?<![\\|\w])\|(?=\S)([^|`]*?\S)\|(?![|\w])")
+_QUOTED = re.compile(r"(``.*?``|:\w+:`[^`]*`|`[^`]*`_?)")
+
+
+def _escape_bars(app: Sphinx, what: str, name: str, obj: Any, options: Any,
+                 lines: list[str]) -> None:
+    # Escape |x| in prose (not in inline literals or roles, not in math, code or other
+    # directive blocks, not in literal blocks or doctests), so it shows as |x|.
+    block_indent: int | None = None
+    for i, line in enumerate(lines):
+        stripped = line.lstrip()
+        indent = len(line) - len(stripped)
+        if block_indent is not None:
+            if not stripped or indent > block_indent:
+                continue
+            block_indent = None
+        if stripped.startswith(">>>") or stripped.startswith("... "):
+            continue
+        if stripped.startswith(".. "):
+            block_indent = indent
+            continue
+        if "|" in line and not stripped.startswith("|"):
+            parts = _QUOTED.split(line)
+            lines[i] = "".join(p if k % 2 else _BARS.sub(r"\\|\1\\|", p)
+                               for k, p in enumerate(parts))
+        if stripped.endswith("::"):
+            block_indent = indent
+
+
 _API: dict[str, set[str]] | None = None
 
 
@@ -528,6 +559,7 @@ def setup(app: Sphinx) -> dict[str, Any]:
     app.connect("missing-reference", _missing_reference)
     app.connect("build-finished", _build_finished)
     app.connect("html-page-context", _html_page_context, priority=900)
+    app.connect("autodoc-process-docstring", _escape_bars, priority=300)
     app.connect("autodoc-process-docstring", _keep_raw_doc, priority=400)
     app.connect("autodoc-process-docstring", _restore_raw_doc, priority=600)
     app.add_css_file("fivebar_book.css")
