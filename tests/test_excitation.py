@@ -1,0 +1,185 @@
+"""Tests of fivebar.excitation: the Fourier expansion (2.10), the frequencies nu_f, the modal basis."""
+
+import math
+
+import numpy as np
+import pytest
+
+import fivebar
+from fivebar.dynamics import LinkageDynamics
+from fivebar.excitation import (
+    ExcitationError,
+    ModalBasis,
+    excitation_frequencies,
+    fourier_series,
+    load_expansion,
+    modal_basis,
+    modal_expansion,
+)
+
+
+@pytest.fixture(scope="module")
+def params():
+    return fivebar.load_params()
+
+
+@pytest.fixture(scope="module")
+def dyn(params):
+    return LinkageDynamics(params, 120.0, 100, nonlinear=False)
+
+
+# --- Fourier series -----------------------------------------------------------------------------
+def test_pure_cosines_are_recovered_exactly():
+    T, S = 0.37, 64
+    nu = 2 * np.pi / T
+    t = np.arange(S) * T / S
+    x = np.stack([
+        1.5 + 2.0 * np.cos(3 * nu * t + 0.4),
+        -0.3 * np.cos(nu * t - 2.0) + 0.7 * np.cos(5 * nu * t + 1.0),
+    ], axis=1)
+    fs = fourier_series(x, T, 6)
+    assert fs.frequency == pytest.approx(nu)
+    assert fs.mean == pytest.approx([1.5, 0.0], abs=1e-13)
+    assert fs.amplitude[2, 0] == pytest.approx(2.0, rel=1e-13)
+    assert fs.phase[2, 0] == pytest.approx(0.4, abs=1e-13)
+    assert fs.amplitude[0, 1] == pytest.approx(0.3, rel=1e-13)
+    assert fs.phase[0, 1] == pytest.approx(-2.0 + np.pi, abs=1e-13)  # -0.3 cos(x) = 0.3 cos(x + pi)
+    assert fs.amplitude[4, 1] == pytest.approx(0.7, rel=1e-13)
+    others = np.ones_like(fs.amplitude, bool)
+    others[2, 0] = others[0, 1] = others[4, 1] = False
+    assert np.abs(fs.amplitude[others]).max() < 1e-13
+    # and between the samples
+    tt = np.linspace(0, 2 * T, 37)
+    exact = np.stack([1.5 + 2.0 * np.cos(3 * nu * tt + 0.4),
+                      -0.3 * np.cos(nu * tt - 2.0) + 0.7 * np.cos(5 * nu * tt + 1.0)], axis=1)
+    assert np.abs(fs(tt) - exact).max() < 1e-12
+    # truncation drops the fifth harmonic
+    assert np.abs(fs(tt, 4)[:, 1] - (-0.3 * np.cos(nu * tt - 2.0))).max() < 1e-12
+
+
+def test_truncation_error_is_the_dropped_harmonics():
+    T, S = 1.0, 50
+    t = np.arange(S) * T / S
+    x = np.cos(2 * np.pi * t) + 0.01 * np.cos(2 * np.pi * 7 * t)
+    fs = fourier_series(x, T, 10)
+    assert fs.relative_error(x, 6) == pytest.approx(0.01 / 1.01, rel=1e-9)
+    assert fs.relative_error(x) < 1e-13
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        (np.ones((10, 2)), 1.0, 5),  # m = S/2 (Nyquist)
+        (np.ones((10, 2)), 1.0, 0),
+        (np.ones((10, 2)), -1.0, 2),
+        (np.ones((10, 2)), 1.0, 2.5),
+        (np.full((10, 2), np.nan), 1.0, 2),
+        (np.ones((2, 2)), 1.0, 1),
+    ],
+)
+def test_bad_series_input(args):
+    with pytest.raises(ExcitationError):
+        fourier_series(*args)
+
+
+def test_load_series_reconstructs_the_model_force_between_steps(dyn, params):
+    """(2.10) with m = params.fourier_terms against the load evaluated directly off the grid."""
+    fs = load_expansion(dyn)
+    assert fs.m == params.fourier_terms
+    assert fs.frequency == pytest.approx(params.replace(crank_speed_rpm=120.0).crank_speed)
+    t = (np.arange(13) + 0.37) * dyn.period / 13
+    F = np.array([dyn.force(x) for x in t])
+    err = np.abs(fs(t) - F).max() / np.abs(F).max()
+    assert err < 1e-6
+    # three harmonics are not enough: the error is the dropped part, of order 1e-3
+    assert 1e-4 < fs.relative_error(dyn.step_data.F, 3) < 1e-2
+
+
+def test_load_coefficients_match_quadrature_of_a_finer_model(params):
+    """The DFT coefficients of the S = 100 model against trapezoidal quadrature at S = 400."""
+    coarse = load_expansion(LinkageDynamics(params, 120.0, 100, nonlinear=False), 5)
+    fine = LinkageDynamics(params, 120.0, 400, nonlinear=False)
+    nu = 2 * np.pi / fine.period
+    F = fine.step_data.F
+    for k in (1, 2, 3):
+        c = 2 * np.mean(F * np.exp(-1j * k * nu * fine.t)[:, None], axis=0)
+        assert np.abs(coarse.complex_amplitude[k - 1] - c).max() < 1e-9 * np.abs(F).max()
+
+
+# --- the frequencies nu_f ----------------------------------------------------------------------------
+def test_excitation_frequencies_equal_speeds(params):
+    df = excitation_frequencies(params, 90.0)
+    W = 90.0 * 2 * np.pi / 60
+    assert df.loc[["nu1", "nu2", "nu3", "nu4", "nu5"], "frequency (rad/s)"].to_numpy() == pytest.approx([W] * 5)
+    assert df.loc["nu1", "frequency (Hz)"] == pytest.approx(1.5)
+    assert list(df.index[df["drives linkage"]]) == ["nu1", "nu2", "nu3"]
+    # crank-tied supply: the field turns at the rotor speed / (1 - s)
+    assert df.loc["nu6", "frequency (rad/s)"] == pytest.approx(W / (1 - params.motor1.s))
+    assert df.loc["nu7", "frequency (rad/s)"] == pytest.approx(W / (1 - params.motor2.s))
+
+
+def test_nu3_is_the_greatest_common_divisor(params):
+    df = excitation_frequencies(params.replace(speed_ratio=1.5), 60.0)
+    W = 2 * np.pi
+    assert df.loc["nu2", "frequency (rad/s)"] == pytest.approx(1.5 * W)
+    assert df.loc["nu3", "frequency (rad/s)"] == pytest.approx(0.5 * W)  # period 2 s = lcm(1 s, 2/3 s)
+
+
+def test_mains_supply_field_frequencies(params):
+    df = excitation_frequencies(params, supply="mains")
+    f = params.supply_frequency
+    assert df.loc["nu6", "frequency (Hz)"] == pytest.approx(f / params.motor1.p)
+    assert df.loc["nu7", "frequency (Hz)"] == pytest.approx(f / params.motor2.p)
+    assert df.loc["nu1", "frequency (Hz)"] == pytest.approx((1 - params.motor1.s) * f / params.motor1.p)
+    assert math.isnan(df.loc["nu8", "frequency (rad/s)"])
+    with pytest.raises(ExcitationError):
+        excitation_frequencies(params, supply="grid")
+
+
+# --- modal basis ------------------------------------------------------------------------------------
+def test_instantaneous_modes_diagonalise_every_step(dyn):
+    B = modal_basis(dyn, 3)
+    sd = dyn.step_data
+    for j in (0, 17, 63):
+        P = B.shapes[j]
+        assert np.abs(P.T @ sd.M[j] @ P - np.eye(3)).max() < 1e-9
+        assert np.abs(P.T @ sd.K[j] @ P - np.diag(B.omega[j] ** 2)).max() < 1e-7 * B.omega[j, -1] ** 2
+    # tracked: consecutive shapes overlap positively, and the last returns to the first
+    ov = np.einsum("sik,sij,sjk->sk", B.shapes[1:], sd.M[1:], B.shapes[:-1])
+    assert ov.min() > 0.5
+    assert np.all(B.omega[:, 0] < B.omega[:, 1])
+    assert B.mean_omega == pytest.approx(B.omega.mean(axis=0))
+
+
+def test_reference_basis_is_constant_and_projects_by_complex_sums(dyn):
+    B = modal_basis(dyn, 2, "reference", reference_step=10)
+    assert np.all(B.shapes == B.shapes[10])
+    assert np.abs(B.gyroscopic).max() == 0.0
+    ms = modal_expansion(dyn, B, 6)
+    per_dof = load_expansion(dyn, 6)
+    # modal phases from sum_i phi_ir F_ki e^{i tau_ki} (errata E22)
+    expect = per_dof.complex_amplitude @ B.shapes[0]
+    assert np.abs(ms.complex_amplitude - expect).max() < 1e-12 * np.abs(expect).max()
+
+
+def test_kinematic_stiffness_of_a_rotating_shape():
+    """A unit shape turning at Omega in the plane: H = -Omega^2, G = 0 (to O(dt^2))."""
+    S, T = 400, 0.5
+    W = 2 * np.pi / T
+    t = np.arange(S) * T / S
+    shapes = np.stack([np.cos(W * t), np.sin(W * t)], axis=1)[:, :, None]
+    B = ModalBasis("instantaneous", t, T, np.ones((S, 1)), shapes, np.broadcast_to(np.eye(2), (S, 2, 2)))
+    dt = T / S
+    h = -(2 / dt * np.sin(W * dt / 2)) ** 2  # exact second difference of a sinusoid
+    assert B.kinematic_stiffness[:, 0, 0] == pytest.approx(np.full(S, h), rel=1e-12)
+    assert h == pytest.approx(-(W**2), rel=1e-3)
+    assert np.abs(B.gyroscopic).max() < 1e-9 * W
+
+
+def test_bad_basis_input(dyn):
+    with pytest.raises(ExcitationError):
+        modal_basis(dyn, 0)
+    with pytest.raises(ExcitationError):
+        modal_basis(dyn, 2, "average")
+    with pytest.raises(ExcitationError):
+        modal_basis(dyn, 2, "reference", reference_step=100)

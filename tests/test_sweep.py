@@ -1,0 +1,106 @@
+"""Tests of fivebar.sweep: steady-state amplitude against crank speed, serial and parallel."""
+
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import fivebar
+from fivebar.resonance import resonance_speeds
+from fivebar.sweep import SweepError, clear_cache, speed_sweep, sweep_peaks
+
+SPEEDS = [100.0, 700.0, 1300.0]
+
+
+@pytest.fixture(scope="module")
+def params():
+    return fivebar.load_params()
+
+
+@pytest.fixture(scope="module")
+def serial(params):
+    return speed_sweep(params, SPEEDS, progress=False, cache=False)
+
+
+def _same(a: pd.DataFrame, b: pd.DataFrame) -> None:
+    assert list(a.columns) == list(b.columns)
+    assert np.allclose(a.to_numpy(float), b.to_numpy(float), rtol=1e-10, atol=0.0)
+
+
+def test_process_pool_equals_serial(params, serial):
+    with ProcessPoolExecutor(max_workers=2) as ex:
+        par = speed_sweep(params, SPEEDS, executor=ex, progress=False, cache=False)
+    _same(par, serial)
+
+
+def test_dask_local_cluster_equals_serial(params, serial):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        par = speed_sweep(params, SPEEDS, executor=client.get_executor(), progress=False, cache=False)
+    _same(par, serial)
+
+
+def test_threads_and_cache(params, serial):
+    clear_cache()
+    with ThreadPoolExecutor(max_workers=2) as ex:
+        a = speed_sweep(params, SPEEDS[::-1], executor=ex, progress=True)
+    _same(a.iloc[::-1].reset_index(drop=True), serial)
+    from fivebar import sweep as module
+
+    assert len(module._CACHE) == 3
+    b = speed_sweep(params, SPEEDS, progress=False)  # served from the cache, in the order asked
+    _same(b, serial)
+    clear_cache()
+    assert not module._CACHE
+
+
+def test_quasi_static_limit(params):
+    """At a crawl the dynamic amplification tends to 1 (the response is K^-1 F)."""
+    df = speed_sweep(params, [5.0], progress=False, cache=False)
+    assert df["L2 amplification"].iloc[0] == pytest.approx(1.0, abs=2e-3)
+    assert df["L3 amplification"].iloc[0] == pytest.approx(1.0, abs=2e-3)
+    assert df["max |multiplier|"].iloc[0] < 1.0
+
+
+def test_peak_sits_at_the_predicted_superharmonic_resonance(params):
+    """2 mm side in the plane: the k = 2 resonance of mode 1 lies where the effective frequency
+    (spin softening) puts it, not where the paper's frequency mean (3.3) does."""
+    p = params.replace(bending_depth=0.002)
+    pred = {}
+    for kind in ("effective", "mean"):
+        sp = resonance_speeds(p, n_modes=1, frequencies=kind)
+        pred[kind] = sp[(sp["type"] == "superharmonic") & (sp["k"] == 2)]["speed (r/min)"].iloc[0]
+    speeds = np.linspace(0.9 * pred["effective"], 1.1 * pred["effective"], 11)
+    df = speed_sweep(p, speeds, progress=False, cache=False)
+    i = int(df["L2 amplification"].idxmax())
+    peak = df["speed (r/min)"].iloc[i]
+    assert 0 < i < len(df) - 1  # an interior maximum
+    assert df["L2 amplification"].iloc[i] > 5.0
+    assert abs(peak / pred["effective"] - 1) < 0.03
+    assert abs(peak / pred["mean"] - 1) > 0.08
+
+
+def test_sweep_peaks():
+    x = np.linspace(0, 10, 201)
+    df = pd.DataFrame({"speed (r/min)": x, "a": 1 / np.hypot(1 - (x / 3) ** 2, 0.05) + 0.2 / np.hypot(1 - (x / 7) ** 2, 0.05)})
+    pk = sweep_peaks(df, "a")
+    assert pk["speed (r/min)"].to_numpy() == pytest.approx([3.0, 7.0], abs=0.06)
+    with pytest.raises(SweepError):
+        sweep_peaks(df, "b")
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"speeds_rpm": [-10.0]},
+        {"speeds_rpm": []},
+        {"speeds_rpm": [100.0], "links": ("L5",)},
+        {"speeds_rpm": [100.0], "direction": "radial"},
+        {"speeds_rpm": [100.0], "executor": "dask"},
+    ],
+)
+def test_bad_sweep_input(params, kwargs):
+    with pytest.raises(SweepError):
+        speed_sweep(params, progress=False, **kwargs)
