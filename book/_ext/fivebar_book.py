@@ -325,7 +325,8 @@ def _source_text(path: Path) -> str:
 
 
 class EquationIndex(SphinxDirective):
-    """One row per line ``number | what it is | issue`` (issue optional)."""
+    """One row per line ``number | what it is | issue`` (issue optional; ``none`` for a number
+    that the paper skips, whose citations can only come from ranges such as (A.1)-(A.8))."""
 
     has_content = True
     option_spec = {"exclude": directives.unchanged, "skip-docs": directives.unchanged}
@@ -364,6 +365,11 @@ class EquationIndex(SphinxDirective):
             issue = parts[2].lstrip("#") if len(parts) == 3 and parts[2] else ""
             planned = f"planned in issue #{issue}" if issue else "not cited yet"
             what_nodes, msgs = self.state.inline_text(what, lineno)
+            if issue == "none":  # a number the paper skips: citations are range artefacts
+                rows.append([_para(nodes.Text(f"({eq})"), classes=["fivebar-eqno"]),
+                             _para(*what_nodes, *msgs), _para(nodes.Text("—")),
+                             _para(nodes.Text("—"))])
+                continue
             objs = lib.get(eq, [])
             lib_cell = nodes.container()
             by_module: dict[str, list[tuple[str, str]]] = {}
