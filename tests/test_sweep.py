@@ -8,7 +8,7 @@ import pytest
 
 import fivebar
 from fivebar.resonance import resonance_speeds
-from fivebar.sweep import SweepError, clear_cache, speed_sweep, sweep_peaks
+from fivebar.sweep import SweepError, clear_cache, match_peaks, speed_sweep, sweep_peaks
 
 SPEEDS = [100.0, 700.0, 1300.0]
 
@@ -89,6 +89,10 @@ def test_sweep_peaks():
     assert pk["speed (r/min)"].to_numpy() == pytest.approx([3.0, 7.0], abs=0.06)
     with pytest.raises(SweepError):
         sweep_peaks(df, "b")
+    m = match_peaks(df, "a", [3.1, 6.8, 5.0])
+    assert m["peak (r/min)"].to_numpy()[:2] == pytest.approx([3.0, 7.0], abs=0.06)
+    assert m["offset"].iloc[0] == pytest.approx(3.0 / 3.1 - 1, abs=0.02)
+    assert np.isnan(m["peak (r/min)"].iloc[2])  # no interior maximum near 5
 
 
 @pytest.mark.parametrize(

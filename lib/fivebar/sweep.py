@@ -41,7 +41,7 @@ from .newmark import GeneralizedAlpha, Scheme
 from .params import Params
 from .steady import SteadyState, shooting
 
-__all__ = ["SweepError", "clear_cache", "sweep_point", "speed_sweep", "sweep_peaks"]
+__all__ = ["SweepError", "clear_cache", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
 
 _CACHE: dict[tuple, dict[str, float]] = {}
 _LINKS = ("L1", "L2", "L3", "L4")
@@ -191,3 +191,32 @@ def sweep_peaks(sweep: pd.DataFrame, column: str, prominence: float = 0.05) -> p
     out = sweep.iloc[idx][["speed (r/min)", column]].copy()
     out["prominence"] = props["prominences"]
     return out.sort_values(column, ascending=False).reset_index(drop=True)
+
+
+def match_peaks(sweep: pd.DataFrame, column: str, speeds: ArrayLike, window: float = 0.06) -> pd.DataFrame:
+    r"""The sweep's local maximum near each predicted resonance speed.
+
+    For every predicted speed :math:`\Omega_p` (r/min), the largest value of ``column`` among
+    the sweep points within :math:`\Omega_p(1 \pm 	ext{window})`; it counts as a peak if it is
+    an interior maximum of that window (not at its edge).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``predicted (r/min)``, ``peak (r/min)`` (NaN if no interior maximum),
+        ``offset`` (peak / predicted - 1) and ``column`` at the peak.
+    """
+    if column not in sweep:
+        raise SweepError(f"column = {column!r} is not in the sweep: use one of {list(sweep.columns)}")
+    x = sweep["speed (r/min)"].to_numpy(float)
+    y = sweep[column].to_numpy(float)
+    rows = []
+    for sp in np.atleast_1d(np.asarray(speeds, float)):
+        idx = np.flatnonzero(np.abs(x / sp - 1) <= window)
+        peak = val = np.nan
+        if idx.size >= 3:
+            i = idx[np.argmax(y[idx])]
+            if idx[0] < i < idx[-1]:
+                peak, val = x[i], y[i]
+        rows.append((sp, peak, peak / sp - 1, val))
+    return pd.DataFrame(rows, columns=["predicted (r/min)", "peak (r/min)", "offset", column])
