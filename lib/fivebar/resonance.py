@@ -45,7 +45,6 @@ from functools import lru_cache
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-import scipy.linalg
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
