@@ -30,3 +30,13 @@ def test_speed_scaling_and_torques():
     # constant crank speed: the inverse dynamics are exactly proportional to its square
     assert r["motor 1 torque (N m)"] == pytest.approx(4.0, rel=1e-9)
     assert df["motor 1 torque / stall"].iloc[1] == pytest.approx(df["motor 1 torque (N m)"].iloc[1] / 2.0)
+
+
+def test_assumptions_table_reports_the_effect_of_every_assumption():
+    from fivebar.reporting import assumptions_table
+
+    df = assumptions_table(effects=True).set_index("key")
+    assert df["effect on Figure 6"].str.len().min() > 0
+    assert df.loc["em_variant", "effect on Figure 6"].endswith("L2 +0 %, L3 +0 %")
+    assert df.loc["supply_frequency", "effect on Figure 6"].startswith("none")
+    assert "120 r/min: L2 +30" in df.loc["crank_speed_rpm", "effect on Figure 6"]

@@ -198,8 +198,13 @@ def _assumption_rows(df: Any, fmt: Any) -> tuple[list[str], list[list[nodes.Node
         key = nodes.container()
         key += _para(nodes.literal(text=fmt(r["key"])))
         key += _para(nodes.Text("= " + value))
-        rows.append([key, _para(nodes.Text(fmt(r["reason"]))),
-                     _para(nodes.Text(fmt(r["alternative"])))])
+        row = [key, _para(nodes.Text(fmt(r["reason"]))), _para(nodes.Text(fmt(r["alternative"])))]
+        if "effect on Figure 6" in r:
+            row.append(_para(nodes.Text(fmt(r["effect on Figure 6"]))))
+        rows.append(row)
+    if rows and len(rows[0]) == 4:
+        header = ["Assumption and value", "Reason", "Alternative shown", "Effect on Figure 6 (p-p midpoint deflection)"]
+        return header, rows, [18, 38, 18, 26]
     return ["Assumption and value", "Reason", "Alternative shown"], rows, [24, 50, 26]
 
 
@@ -227,7 +232,7 @@ class FivebarTable(SphinxDirective):
             self.env.note_dependency(str(dep))
         self.env.note_dependency(reporting.__file__)
         try:
-            df = getattr(reporting, func)()
+            df = getattr(reporting, func)(**({"effects": True} if name == "assumptions" else {}))
         except Exception as exc:  # a malformed data file: fail the build with its message
             raise self.error(f"fivebar-table {name}: {exc}") from exc
         header, rows, widths = layout(df, reporting.format_value)

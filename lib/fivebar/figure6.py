@@ -51,6 +51,7 @@ ASSUMPTION_VARIANTS: tuple[Variant, ...] = (
     Variant("shaft_diameter_2", "motor 2 shaft 24 mm", (("shaft_diameter_2", 0.024),)),
     Variant("shaft_E", "shafts rigid (crank roots clamped)", (), motors=False),
     Variant("rotary_inertia", "no rotary inertia", (("rotary_inertia", 0),)),
+    Variant("gravity", "vertical plane, g = 9.81 m/s^2", (("gravity", 9.81),)),
     Variant("em_variant", "literal electromagnetic field", (("em_variant", "literal"),)),
     Variant("gap_flux_density", "gap flux density 0.9 T", (("gap_flux_density", 0.9),)),
 )

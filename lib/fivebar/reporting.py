@@ -113,7 +113,7 @@ def errata_table(path: str | Path | None = None) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=list(ERRATA_FIELDS.values()))
 
 
-def assumptions_table(params: Params | None = None) -> pd.DataFrame:
+def assumptions_table(params: Params | None = None, effects: bool = False) -> pd.DataFrame:
     """The model's assumptions: the numbers the paper does not give.
 
     ``df = assumptions_table()``; ``df = assumptions_table(load_params().replace(...))``
@@ -123,6 +123,10 @@ def assumptions_table(params: Params | None = None) -> pd.DataFrame:
     params
         The parameter set whose ``[assumptions]`` are listed (values as used, including
         overrides); ``None`` loads ``data/wang2011.toml``.
+    effects
+        Add a column ``effect on Figure 6``: how much the peak-to-peak transverse midpoint
+        deflections of L2 and L3 move when the assumption takes each alternative of
+        :data:`fivebar.figure6.ASSUMPTION_VARIANTS` (a few seconds of computation).
 
     Returns
     -------
@@ -142,7 +146,38 @@ def assumptions_table(params: Params | None = None) -> pd.DataFrame:
         for field in _ASSUMPTION_FIELDS:
             row[field] = str(meta.get(field, "")).strip()
         rows.append(row)
-    return pd.DataFrame(rows, columns=["key", "value", *_ASSUMPTION_FIELDS])
+    df = pd.DataFrame(rows, columns=["key", "value", *_ASSUMPTION_FIELDS])
+    if effects:
+        df["effect on Figure 6"] = df["key"].map({**_NO_EFFECT, **_figure6_effects(params)}).fillna(
+            "not varied in the Figure 6 table"
+        )
+    return df
+
+
+_ROTOR_ONLY = "none: it acts only on the rotors' whirl, which is decoupled from the links"
+#: assumptions that cannot move the linkage's response, and why
+_NO_EFFECT = {
+    "supply_frequency": _ROTOR_ONLY,
+    "phase_phi10": _ROTOR_ONLY,
+    "phase_phi20": _ROTOR_ONLY,
+    "static_eccentricity_angle": _ROTOR_ONLY,
+    "eccentricity_scale": _ROTOR_ONLY,
+    "fourier_terms": "none: it is used by the multiple-scales approximation only",
+    "yield_stress": "none: it is the limit the computed stress is compared with",
+}
+
+
+def _figure6_effects(params: Params) -> dict[str, str]:
+    """Assumption key -> the change of the L2 / L3 peak-to-peak deflections, in words."""
+    from .figure6 import assumption_effects
+
+    eff = assumption_effects(params).iloc[1:]
+    out: dict[str, list[str]] = {}
+    for r in eff.to_dict("records"):
+        out.setdefault(r["assumption"], []).append(
+            f"{r['alternative']}: L2 {r['L2 change (%)']:+.3g} %, L3 {r['L3 change (%)']:+.3g} %"
+        )
+    return {k: "; ".join(v) for k, v in out.items()}
 
 
 def format_value(value: Any) -> str:
