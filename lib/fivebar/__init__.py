@@ -11,10 +11,14 @@ The facade below is what the chapters use; the modules hold the rest.
 from .control import linear_model
 from .elements import beam_element, motor_element
 from .kinematics import GeometryError, positions
+from .excitation import excitation_frequencies, load_expansion
 from .modal import natural_frequencies
+from .multiscale import MultipleScalesResponse, multiple_scales, multiple_scales_newmark
 from .newmark import GeneralizedAlpha, HHT, Newmark, NewtonConvergenceError, UnstableParametersError, integrate
 from .params import DEFAULT_PARAMS_PATH, Motor, ParameterError, Params, load_params
+from .resonance import campbell_diagram, resonance_table
 from .steady import SteadyState, SteadyStateError, steady_state
+from .sweep import speed_sweep
 
 __all__ = [
     "DEFAULT_PARAMS_PATH",
@@ -22,6 +26,7 @@ __all__ = [
     "GeometryError",
     "HHT",
     "Motor",
+    "MultipleScalesResponse",
     "Newmark",
     "NewtonConvergenceError",
     "ParameterError",
@@ -30,12 +35,19 @@ __all__ = [
     "SteadyStateError",
     "UnstableParametersError",
     "beam_element",
+    "campbell_diagram",
+    "excitation_frequencies",
     "integrate",
     "linear_model",
+    "load_expansion",
     "load_params",
     "motor_element",
+    "multiple_scales",
+    "multiple_scales_newmark",
     "natural_frequencies",
     "positions",
+    "resonance_table",
+    "speed_sweep",
     "steady_state",
 ]
 __version__ = "0.1.0"
