@@ -149,7 +149,7 @@ def test_frozen_frequencies_converge_under_refinement(motors):
     meshes = [(1, 2, 2, 1), (2, 4, 4, 2), (4, 8, 8, 4), (8, 16, 16, 8)]
     f = np.array([natural_frequencies(P, 0.4, 1.3, n=6, motors=motors, elements_per_link=e) for e in meshes])
     err = np.abs(f[:-1] - f[-1]) / f[-1]
-    assert np.all(f[:-1] >= f[-1] * (1 - 1e-12))  # consistent mass: frequencies from above
+    assert np.all(f[:-1] >= f[-1] * (1 - 1e-9))  # consistent mass: from above (to eigensolver round-off)
     assert np.all(err[1] <= err[0] + 1e-12) and np.all(err[2] <= err[1] + 1e-12)
     assert err[1].max() < 1e-3 and err[0].max() < 2e-2
 
