@@ -91,7 +91,7 @@ def test_march_reaches_the_shooting_orbit_with_a_stable_scheme():
 
 def test_paper_rule_at_S100_gives_an_unstable_discrete_orbit():
     """The average-acceleration rule is unconditionally stable only for constant matrices; with
-    the links' rotating stiff modes and S = 100 the discrete periodic orbit is unstable, and a
+    the links' turning, under-resolved modes and S = 100 the discrete periodic orbit is unstable, and a
     finer step or numerical dissipation restores stability (the book's Newmark chapter)."""
     d = LinkageDynamics(P, nonlinear=False, steps_per_period=100)
     sh = shooting(d, scheme=Newmark())
