@@ -50,9 +50,16 @@ class Modes:
 
 
 def _eig(M: NDArray, K: NDArray, n: int | None) -> tuple[NDArray, NDArray]:
-    subset = None if n is None else (0, min(n, M.shape[0]) - 1)
-    w2, V = scipy.linalg.eigh(K, M, subset_by_index=subset)
-    return np.sqrt(np.clip(w2, 0.0, None)) / (2.0 * np.pi), V
+    # Solved as M phi = mu K phi for the largest mu = 1/omega^2: the curvature DOFs make M
+    # ill-conditioned (eigenvalues from 1e-10 to 1), and the usual K phi = omega^2 M phi
+    # then gives the lowest frequencies only to about 1e-8 relative, varying with the BLAS
+    # thread count; the inverse problem gives them to round-off.
+    N = M.shape[0]
+    k = N if n is None else min(n, N)
+    mu, V = scipy.linalg.eigh(M, K, subset_by_index=(N - k, N - 1))
+    mu, V = mu[::-1], V[:, ::-1]  # ascending frequency
+    V = V / np.sqrt(mu)  # mass-normalised: V^T M V = I
+    return 1.0 / (2.0 * np.pi * np.sqrt(mu)), V
 
 
 def _model(params: Params, motors: bool, elements_per_link, model: Model | None) -> Model:
