@@ -7,6 +7,7 @@ Newmark time integration of the full-order matrices, and closed forms.
 
 import numpy as np
 import pytest
+from crank_laws import general_laws as _general_laws
 
 from fivebar import load_params, natural_frequencies
 from fivebar.control import (
@@ -33,14 +34,6 @@ from fivebar.rigid import inertia_model, inverse_dynamics, mass_matrix
 P = load_params()
 FL = FlexibleLinkage(P)
 CONFIGS = [(0.0, 0.0), (0.4, 1.3), (2.2, 2.2), (4.0, -0.7)]
-
-
-def _general_laws(t):
-    """Non-uniform crank laws with analytic derivatives (theta, omega, alpha for both cranks)."""
-    return (
-        0.3 + 5.0 * t + 0.7 * np.sin(3.0 * t), 5.0 + 2.1 * np.cos(3.0 * t), -6.3 * np.sin(3.0 * t),
-        -1.1 + 3.0 * t + 0.5 * np.cos(2.0 * t), 3.0 - 1.0 * np.sin(2.0 * t), -2.0 * np.cos(2.0 * t),
-    )
 
 
 @pytest.mark.parametrize("th", CONFIGS)

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from crank_laws import general_laws as _general_laws
 from scipy.integrate import solve_ivp
 
 from fivebar import load_params
@@ -21,17 +22,6 @@ from fivebar.rigid import (
 
 P = load_params()
 PG = P.replace(gravity=9.81)
-
-
-def _general_laws(t):
-    """Non-uniform crank laws with analytic derivatives (theta, omega, alpha for both cranks)."""
-    th1 = 0.3 + 5.0 * t + 0.7 * np.sin(3.0 * t)
-    w1 = 5.0 + 2.1 * np.cos(3.0 * t)
-    a1 = -6.3 * np.sin(3.0 * t)
-    th4 = -1.1 + 3.0 * t + 0.5 * np.cos(2.0 * t)
-    w4 = 3.0 - 1.0 * np.sin(2.0 * t)
-    a4 = -2.0 * np.cos(2.0 * t)
-    return th1, w1, a1, th4, w4, a4
 
 
 def _energy_by_hand(params, th1, w1, th4, w4):
