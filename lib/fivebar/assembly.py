@@ -41,6 +41,7 @@ import tomllib
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import InputError
 from .elements import beam_element, motor_element, shape_functions
 from .kinematics import LINKS, RigidState, link_angles
 from .params import DEFAULT_PARAMS_PATH, Params
@@ -258,7 +259,7 @@ class Model:
         Works for any mesh: the point is interpolated with the element's shape functions.
         """
         if not 0.0 <= s <= 1.0:
-            raise ValueError(f"s = {s!r} is not allowed: give a fraction of the link in [0, 1]")
+            raise InputError(f"s = {s!r} is not allowed: give a fraction of the link in [0, 1]")
         q = self.element_displacements(u, theta1, theta4, mode)
         sc = 1.0 - s if _reversed(link) else s
         els = [i for i, el in enumerate(self.elements) if el.link == link]
@@ -368,7 +369,7 @@ def build_model(
     """
     epl = PAPER_ELEMENTS_PER_LINK if elements_per_link is None else tuple(elements_per_link)
     if len(epl) != 4 or any(isinstance(k, bool) or int(k) != k or k < 1 for k in epl):
-        raise ValueError(
+        raise InputError(
             f"elements_per_link = {elements_per_link!r} is not allowed: give four integers >= 1 "
             "(elements on L1, L2, L3, L4)"
         )

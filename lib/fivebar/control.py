@@ -120,6 +120,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import ComputationError, InputError, InputTypeError
 from .assembly import Model, build_model
 from .elements import gauss_points, motor_shape_functions, shaft_section
 from .kinematics import LINKS, crank_laws, rigid_state
@@ -163,9 +164,9 @@ def _finite(name: str, value: ArrayLike) -> NDArray:
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} = {value!r} is not allowed: it must be a finite number (rad)") from None
+        raise InputError(f"{name} = {value!r} is not allowed: it must be a finite number (rad)") from None
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} = {value!r} is not allowed: it must be finite (rad)")
+        raise InputError(f"{name} = {value!r} is not allowed: it must be finite (rad)")
     return a
 
 
@@ -173,13 +174,13 @@ def _positive(name: str, value: float, unit: str = "") -> float:
     ok = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
     if not ok or not math.isfinite(value) or value <= 0:
         u = f" ({unit})" if unit else ""
-        raise ValueError(f"{name} = {value!r} is not allowed: it must be a positive finite number{u}")
+        raise InputError(f"{name} = {value!r} is not allowed: it must be a positive finite number{u}")
     return float(value)
 
 
 def _count(name: str, value: int, lo: int, hi: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
-        raise ValueError(f"{name} = {value!r} is not allowed: it must be an integer in [{lo}, {hi}]")
+        raise InputError(f"{name} = {value!r} is not allowed: it must be an integer in [{lo}, {hi}]")
     return int(value)
 
 
@@ -417,7 +418,7 @@ class FlexibleLinkage:
         """
         w2, V = scipy.linalg.eigh(K, M)
         if not (np.all(np.abs(w2[:2]) < 1e-8 * w2[2]) and w2[2] > 0):
-            raise RuntimeError(f"expected exactly two rigid modes, found omega^2 = {w2[:3]}")
+            raise ComputationError(f"expected exactly two rigid modes, found omega^2 = {w2[:3]}")
         Ve = V[:, 2:]
         # remove the round-off component along the rigid modes, renormalise
         Mr = Phi_r.T @ M @ Phi_r
@@ -523,7 +524,7 @@ class ModalModel:
         left out of such channels, so the result holds only the zeros that shape the response.
         """
         if input not in _INPUTS:
-            raise ValueError(f"input = {input!r} is not allowed: use one of {list(_INPUTS)}")
+            raise InputError(f"input = {input!r} is not allowed: use one of {list(_INPUTS)}")
         c = self.output(_outputs((output,)))
         k = 2 + self.n_modes
         keep = np.ones(2 * k, bool)
@@ -578,7 +579,7 @@ class ModalModel:
         use with :func:`control.margin` (negative feedback).
         """
         if channel not in (1, 2):
-            raise ValueError(f"channel = {channel!r} is not allowed: use 1 (motor 1) or 2 (motor 2)")
+            raise InputError(f"channel = {channel!r} is not allowed: use 1 (motor 1) or 2 (motor 2)")
         F = self.feedback_matrix(servo) + (0.0 if K_x is None else np.asarray(K_x))
         i, j = channel - 1, 2 - channel
         A = self.A - self.B[:, [j]] @ F[[j]]
@@ -590,7 +591,7 @@ class ModalModel:
         K_x = np.asarray(K_x, float)
         k = 2 + self.n_modes
         if K_x.shape != (2, 2 * k):
-            raise ValueError(f"K_x has shape {K_x.shape}: it must be (2, {2 * k})")
+            raise InputError(f"K_x has shape {K_x.shape}: it must be (2, {2 * k})")
         P = self.projection
         return K_x[:, :k] @ P, K_x[:, k:] @ P
 
@@ -601,7 +602,7 @@ def _outputs(names: Sequence[str]) -> tuple[str, ...]:
     names = tuple(names)
     bad = [n for n in names if n not in OUTPUTS]
     if bad or not names:
-        raise ValueError(f"outputs = {names!r} is not allowed: choose from {list(OUTPUTS)}")
+        raise InputError(f"outputs = {names!r} is not allowed: choose from {list(OUTPUTS)}")
     return names
 
 
@@ -643,7 +644,7 @@ def modal_model(
     n_modes = _count("n_modes", n_modes, 1, fl.n - 2)
     zeta = params.damping_ratio if damping_ratio is None else damping_ratio
     if isinstance(zeta, bool) or not (0.0 <= float(zeta) < 1.0):
-        raise ValueError(f"damping_ratio = {damping_ratio!r} is not allowed: it must lie in [0, 1)")
+        raise InputError(f"damping_ratio = {damping_ratio!r} is not allowed: it must lie in [0, 1)")
     M, K = fl.matrices(th1, th4)
     Phi_r = fl.rigid_modes(th1, th4)
     omega, Phi_e = fl.modes(M, K, Phi_r)
@@ -737,9 +738,9 @@ class Servo:
         for name in ("kp", "kd"):
             v = getattr(self, name)
             if len(v) != 2 or any(isinstance(x, bool) or not math.isfinite(x) or x < 0 for x in v):
-                raise ValueError(f"Servo.{name} = {v!r} is not allowed: give two finite numbers >= 0")
+                raise InputError(f"Servo.{name} = {v!r} is not allowed: give two finite numbers >= 0")
         if self.measure not in _MEASURES:
-            raise ValueError(f"Servo.measure = {self.measure!r} is not allowed: use one of {list(_MEASURES)}")
+            raise InputError(f"Servo.measure = {self.measure!r} is not allowed: use one of {list(_MEASURES)}")
 
     def gains(self, linkage: FlexibleLinkage) -> tuple[NDArray, NDArray]:
         """Physical gains (G_p, G_v), each (2, n): tau = -G_p p - G_v p'."""
@@ -766,7 +767,7 @@ def pd_servo(
     bw = _positive("bandwidth", bandwidth, "Hz")
     z = _positive("zeta", zeta)
     if measure not in _MEASURES:
-        raise ValueError(f"measure = {measure!r} is not allowed: use one of {list(_MEASURES)}")
+        raise InputError(f"measure = {measure!r} is not allowed: use one of {list(_MEASURES)}")
     from .rigid import mass_matrix
 
     th1, th4 = _cycle_angles(params, np.arange(samples) * 2 * np.pi / samples)
@@ -831,11 +832,11 @@ def schedule(gains: ArrayLike, angles: ArrayLike) -> Callable[[ArrayLike], NDArr
     G = np.asarray(gains, float)
     a = np.atleast_1d(_finite("angles", angles))
     if a.ndim != 1 or G.shape[:1] != a.shape:
-        raise ValueError(
+        raise InputError(
             f"angles (shape {a.shape}) and gains (shape {G.shape}) do not match: give one gain per angle"
         )
     if np.any(np.diff(a) <= 0) or a[-1] - a[0] >= 2 * np.pi:
-        raise ValueError(f"angles = {a!r} are not allowed: they must increase strictly and span less than 2 pi")
+        raise InputError(f"angles = {a!r} are not allowed: they must increase strictly and span less than 2 pi")
     xp = np.concatenate([a, [a[0] + 2 * np.pi]])  # close the period
     Gp = np.concatenate([G, G[:1]], axis=0)
 
@@ -912,7 +913,7 @@ class CycleSimulation:
 
     def _col(self, link: str) -> int:
         if link not in ("L2", "L3"):
-            raise ValueError(f"link = {link!r} is not allowed: use 'L2' or 'L3'")
+            raise InputError(f"link = {link!r} is not allowed: use 'L2' or 'L3'")
         return 0 if link == "L2" else 1
 
     def peak_to_peak(self, link: str) -> float:
@@ -945,14 +946,14 @@ def _reference(ref, fl: FlexibleLinkage, params: Params, S: int) -> tuple[NDArra
     :class:`fivebar.steady.SteadyState` (rotors on the crank laws) or a :class:`CycleSimulation`."""
     if isinstance(ref, CycleSimulation):
         if ref.steps_per_period != S:
-            raise ValueError(f"reference has {ref.steps_per_period} steps per period: it must have {S}")
+            raise InputError(f"reference has {ref.steps_per_period} steps per period: it must have {S}")
         sl = slice(len(ref.t) - S - 1, len(ref.t) - 1)
         return ref.p[sl], ref.v[sl]
     dyn = getattr(ref, "dynamics", None)
     if dyn is None:
-        raise TypeError(f"reference must be a SteadyState or a CycleSimulation, got {type(ref).__name__}")
+        raise InputTypeError(f"reference must be a SteadyState or a CycleSimulation, got {type(ref).__name__}")
     if dyn.steps != S or not math.isclose(dyn.period, params.period, rel_tol=1e-12):
-        raise ValueError(
+        raise InputError(
             f"reference has {dyn.steps} steps over {dyn.period:.6g} s: it must have {S} steps over "
             f"{params.period:.6g} s (the same crank speed and steps_per_period)"
         )
@@ -961,7 +962,7 @@ def _reference(ref, fl: FlexibleLinkage, params: Params, S: int) -> tuple[NDArra
     where = {rename.get(lab, lab): k for k, lab in enumerate(labels)}
     missing = [lab for lab in fl.labels[2:] if lab not in where]
     if missing or not dyn.model.motors:
-        raise ValueError(f"reference model lacks the coordinates {missing}: use motors=True and the same mesh")
+        raise InputError(f"reference model lacks the coordinates {missing}: use motors=True and the same mesh")
     P = np.zeros((S, fl.n))
     V = np.zeros((S, fl.n))
     cols = [where[lab] for lab in fl.labels[2:]]
@@ -1024,9 +1025,9 @@ def simulate_cycle(
     periods = _count("periods", periods, 1, 10**6)
     S = _count("steps_per_period", steps_per_period, 2, 10**7)
     if start not in ("quasi-static", "rest"):
-        raise ValueError(f"start = {start!r} is not allowed: use 'quasi-static' or 'rest'")
+        raise InputError(f"start = {start!r} is not allowed: use 'quasi-static' or 'rest'")
     if not isinstance(servo, Servo):
-        raise TypeError(f"servo must be a Servo, got {type(servo).__name__}")
+        raise InputTypeError(f"servo must be a Servo, got {type(servo).__name__}")
     fl = FlexibleLinkage(params)
     T = params.period
     dt = T / S
@@ -1047,7 +1048,7 @@ def simulate_cycle(
     if damping is not None:
         G = np.asarray(damping(laws[0] - params.theta1_0), float)
         if G.shape != (S, 2, 2, fl.n):
-            raise ValueError(f"damping(phi) returned shape {G.shape[1:]}: it must be (2, 2, {fl.n})")
+            raise InputError(f"damping(phi) returned shape {G.shape[1:]}: it must be (2, 2, {fl.n})")
         Gp += G[:, 0]
         Gv += G[:, 1]
         if reference is not None:

@@ -42,6 +42,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import InputError
 from .assembly import Model, build_model
 from .kinematics import crank_laws, rigid_state
 from .newmark import PeriodicStepData, _blas_threads
@@ -111,7 +112,7 @@ class LinkageDynamics:
             params = params.replace(crank_speed_rpm=crank_speed_rpm)
         S = params.steps_per_period if steps_per_period is None else steps_per_period
         if isinstance(S, bool) or int(S) != S or S < 2:
-            raise ValueError(f"steps_per_period = {steps_per_period!r} is not allowed: give an integer >= 2")
+            raise InputError(f"steps_per_period = {steps_per_period!r} is not allowed: give an integer >= 2")
         self.params = params
         self.steps = int(S)
         self.period = params.period
@@ -178,7 +179,7 @@ class LinkageDynamics:
         sampled at construction; at any other time it is computed from the crank angles.
         """
         if self._nl is None:
-            raise ValueError("the model is linear (nonlinear=False): it has no nonlinear force")
+            raise InputError("the model is linear (nonlinear=False): it has no nonlinear force")
         x = float(t) / self.dt
         k = round(x)
         if abs(x - k) <= 1e-9 * max(1.0, abs(x)):

@@ -108,6 +108,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import FivebarError
 from .params import Motor, Params
 
 __all__ = [
@@ -145,7 +146,7 @@ _FORMS = ("derived", "printed")
 _MMF_KEYS = ("F_+s", "F_-s", "F_+r", "F_-r")
 
 
-class ElectromagneticsError(ValueError):
+class ElectromagneticsError(FivebarError, ValueError):
     """Bad input to the electromagnetic model (variant, time, displacement, motor data)."""
 
 

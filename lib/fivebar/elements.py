@@ -45,6 +45,7 @@ import numpy as np
 import scipy.linalg
 from numpy.polynomial import polynomial as P
 
+from .errors import InputError
 from .params import Motor
 
 __all__ = [
@@ -117,13 +118,13 @@ def _positive(name: str, value: float) -> float:
     except (TypeError, ValueError):
         v = math.nan
     if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name} = {value!r} is not allowed: it must be a positive finite number")
+        raise InputError(f"{name} = {value!r} is not allowed: it must be a positive finite number")
     return v
 
 
 def _order(derivative: int) -> int:
     if not _is_int(derivative) or derivative < 0:
-        raise ValueError(f"derivative = {derivative!r} is not allowed: it must be an integer >= 0")
+        raise InputError(f"derivative = {derivative!r} is not allowed: it must be an integer >= 0")
     return int(derivative)
 
 
@@ -133,7 +134,7 @@ def _is_int(value: object) -> bool:
 
 def _variant(variant: str) -> str:
     if variant not in ("corrected", "printed"):
-        raise ValueError(
+        raise InputError(
             f"variant = {variant!r} is not allowed: it must be 'corrected' or 'printed'"
         )
     return variant
@@ -144,7 +145,7 @@ def _points(x: np.typing.ArrayLike, name: str, length: float) -> np.ndarray:
     tol = 1e-12 * length
     bad = ~np.isfinite(x) | (x < -tol) | (x > length + tol)
     if np.any(bad):
-        raise ValueError(
+        raise InputError(
             f"{name} = {float(x[bad].ravel()[0])!r} is outside the element: "
             f"it must lie in [0, {length!r}] m"
         )
@@ -176,7 +177,7 @@ def gauss_points(n: int, L: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     10.666666666667
     """
     if not _is_int(n) or n < 1:
-        raise ValueError(f"n = {n!r} is not allowed: it must be a positive integer")
+        raise InputError(f"n = {n!r} is not allowed: it must be a positive integer")
     L = _positive("L", L)
     t, w = np.polynomial.legendre.leggauss(int(n))
     return 0.5 * L * (t + 1.0), 0.5 * L * w
@@ -313,7 +314,7 @@ def assemble_line(
     M, K : ndarray, shape (4 (n + 1), 4 (n + 1))
     """
     if not _is_int(n) or n < 1:
-        raise ValueError(f"n = {n!r} is not allowed: it must be a positive integer")
+        raise InputError(f"n = {n!r} is not allowed: it must be a positive integer")
     L = _positive("L", L)
     Me, Ke = beam_element(L / n, E, A, I, rho, rotary_inertia)
     size = 4 * (n + 1)
@@ -367,7 +368,7 @@ def bending_frequencies(
         Circular frequencies (rad/s), ascending.
     """
     if supports not in _SUPPORTS:
-        raise ValueError(
+        raise InputError(
             f"supports = {supports!r} is not allowed: it must be one of {list(_SUPPORTS)}"
         )
     M, K = assemble_line(n, L, E, A, I, rho, rotary_inertia)
@@ -375,7 +376,7 @@ def bending_frequencies(
     fixed = {4 * (last if node == -1 else node) + dof for node, dof in _SUPPORTS[supports]}
     keep = [i for i in range(M.shape[0]) if i % 4 != 0 and i not in fixed]
     if not _is_int(modes) or not 1 <= modes <= len(keep):
-        raise ValueError(
+        raise InputError(
             f"modes = {modes!r} is not allowed: it must be an integer in [1, {len(keep)}]"
         )
     # the largest eigenvalues 1/omega^2 of (M, K): accurate to rounding relative to themselves,

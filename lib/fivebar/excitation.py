@@ -78,6 +78,7 @@ import pandas as pd
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import FivebarError
 from .dynamics import LinkageDynamics
 from .electromagnetics import field_frequencies, supply_frequency_for_speed
 from .params import Params
@@ -96,7 +97,7 @@ __all__ = [
 _BASES = ("instantaneous", "reference")
 
 
-class ExcitationError(ValueError):
+class ExcitationError(FivebarError, ValueError):
     r"""Bad input to the excitation functions (the message names the value)."""
 
 

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import FivebarError, InputError
 from .params import Params
 
 __all__ = [
@@ -43,7 +44,7 @@ __all__ = [
 LINKS = {"L1": ("A", "B"), "L2": ("B", "C"), "L3": ("C", "D"), "L4": ("E", "D")}
 
 
-class GeometryError(ValueError):
+class GeometryError(FivebarError, ValueError):
     """The loop cannot close for the given crank angles."""
 
 
@@ -61,7 +62,7 @@ def _angle(d: NDArray) -> NDArray:
 
 def _check_mode(mode: int) -> None:
     if mode not in (1, -1):
-        raise ValueError(f"assembly mode {mode!r} is not allowed: use +1 (C to the left of B->D) or -1")
+        raise InputError(f"assembly mode {mode!r} is not allowed: use +1 (C to the left of B->D) or -1")
 
 
 def positions(params: Params, theta1: ArrayLike, theta4: ArrayLike, mode: int = 1) -> dict[str, NDArray]:
@@ -229,7 +230,7 @@ def crank_laws(
     t = np.asarray(t, float)
     W = params.crank_speed if crank_speed is None else float(crank_speed)
     if not np.isfinite(W) or W <= 0:
-        raise ValueError(f"crank_speed = {crank_speed!r} is not allowed: it must be a positive number (rad/s)")
+        raise InputError(f"crank_speed = {crank_speed!r} is not allowed: it must be a positive number (rad/s)")
     W4 = params.speed_ratio * W
     z = np.zeros_like(t)
     return (

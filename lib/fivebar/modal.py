@@ -20,6 +20,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import InputError
 from .assembly import Model, build_model
 from .kinematics import crank_laws
 from .params import Params
@@ -101,7 +102,7 @@ def natural_frequencies(
     elements out.  ``elements_per_link`` refines the mesh (default the paper's 1-2-2-1).
     """
     if isinstance(n, bool) or int(n) != n or n < 1:
-        raise ValueError(f"n = {n!r} is not allowed: give a positive integer number of modes")
+        raise InputError(f"n = {n!r} is not allowed: give a positive integer number of modes")
     return modes(params, theta1, theta4, int(n), motors, elements_per_link).frequencies
 
 
@@ -136,7 +137,7 @@ def mean_frequencies(
     ``steps`` equally spaced instants of one period (default the parameters' S)."""
     S = params.steps_per_period if steps is None else int(steps)
     if S < 1:
-        raise ValueError(f"steps = {steps!r} is not allowed: give a positive integer")
+        raise InputError(f"steps = {steps!r} is not allowed: give a positive integer")
     phi = np.arange(S) * 2.0 * np.pi / S
     return frequencies_along_cycle(params, phi, n, motors, elements_per_link).mean(axis=0)
 
@@ -161,9 +162,9 @@ def averaged_matrix_modes(
     """
     S = params.steps_per_period if steps is None else int(steps)
     if S < 1:
-        raise ValueError(f"steps = {steps!r} is not allowed: give a positive integer")
+        raise InputError(f"steps = {steps!r} is not allowed: give a positive integer")
     if frame not in ("corotating", "global"):
-        raise ValueError(f"frame = {frame!r} is not allowed: use 'corotating' or 'global'")
+        raise InputError(f"frame = {frame!r} is not allowed: use 'corotating' or 'global'")
     t = np.arange(S) * params.period / S
     th1, _, _, th4, _, _ = crank_laws(params, t)
     m = build_model(params, elements_per_link=elements_per_link, motors=motors)

@@ -103,6 +103,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import FivebarError
 from .steady import SteadyState as _LinkageSteadyState
 
 __all__ = [
@@ -148,11 +149,11 @@ DEFAULT_DETUNING = 0.05
 
 
 # --- errors -----------------------------------------------------------------------------------
-class MultiscaleError(ValueError):
+class MultiscaleError(FivebarError, ValueError):
     """Bad input to the multiple-scales functions (the message names the value)."""
 
 
-class NewtonError(RuntimeError):
+class NewtonError(FivebarError, RuntimeError):
     """A Newton-Raphson iteration did not converge.
 
     Attributes
@@ -1522,8 +1523,8 @@ def multiple_scales(
     *,
     n_modes: int = 2,
     steps_per_period: int | None = None,
-    motors: bool = True,
-    nonlinear: bool = True,
+    motors: bool | None = None,
+    nonlinear: bool | None = None,
     basis: str = "instantaneous",
     frequencies: str = "mean",
     kinematic: bool = True,
@@ -1551,14 +1552,15 @@ def multiple_scales(
 
     Parameters
     ----------
-    params : Params
+    params : Params or Setup
+        The set-up (:class:`fivebar.Setup`; a Params takes the parameter file's settings).
         Ignored when ``dynamics`` is given.
     crank_speed_rpm : float, optional
         Speed of both cranks (r/min).
     n_modes, basis, frequencies, kinematic, parametric, fourier_terms
         See :func:`modal_model` (default: the paper's frequency means (3.3)).
     steps_per_period, motors, nonlinear
-        As for :class:`fivebar.dynamics.LinkageDynamics` (``nonlinear`` also switches the
+        Override the set-up's fields (``None`` keeps them; ``nonlinear`` also switches the
         modal coefficients :math:`\delta, \gamma`).
     detuning : float, optional
         Relative resonance tolerance.  Default :func:`default_detuning`, halved (up to nine
@@ -1574,16 +1576,17 @@ def multiple_scales(
     MultipleScalesResponse
         A :class:`fivebar.steady.SteadyState`.
     """
-    from .dynamics import LinkageDynamics
+    from .setup import as_setup
 
     if dynamics is None:
         if params is None:
             raise MultiscaleError("give params (or an existing dynamics)")
-        dynamics = LinkageDynamics(params, crank_speed_rpm, steps_per_period, motors, nonlinear)
+        dynamics = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
+                            motors=motors, nonlinear=nonlinear).dynamics()
     dyn = dynamics
     model = modal_model(
         dyn, n_modes, basis=basis, frequencies=frequencies, kinematic=kinematic, fourier_terms=fourier_terms,
-        nonlinear=nonlinear and dyn.nonlinear is not None, parametric=parametric,
+        nonlinear=nonlinear is not False and dyn.nonlinear is not None, parametric=parametric,
     )
     tol = default_detuning(model) if detuning is None else float(detuning)
     for _ in range(10):
@@ -1651,8 +1654,8 @@ def multiple_scales_newmark(
     scheme=None,
     start: str = "multiple scales",
     steps_per_period: int | None = None,
-    motors: bool = True,
-    nonlinear: bool = True,
+    motors: bool | None = None,
+    nonlinear: bool | None = None,
     dynamics=None,
     **kwargs,
 ):
@@ -1661,25 +1664,26 @@ def multiple_scales_newmark(
     The first approximation at :math:`t = 0` (:func:`multiple_scales`, ``**kwargs`` passed on)
     is the initial state; the implicit scheme marches period after period
     (:func:`fivebar.steady.march`) until the state repeats to ``tol`` (relative change over one
-    period in the energy norm).  The default scheme is
-    :class:`fivebar.newmark.GeneralizedAlpha` (0.8): the paper's average-acceleration rule at
-    S = 100 has an unstable discrete periodic orbit for this model (errata E26), so marching
-    with it diverges.
+    period in the energy norm).  ``params`` is a :class:`fivebar.Setup` or a Params; the
+    scheme and S default to the set-up's (the parameter file's generalised-alpha: the paper's
+    average-acceleration rule at S = 100 has an unstable discrete periodic orbit for this
+    model, errata E26, so marching with it diverges).
 
     Returns
     -------
     fivebar.steady.SteadyState
         ``method == "march"``; ``periods`` is the number of periods marched.
     """
-    from .dynamics import LinkageDynamics
-    from .newmark import GeneralizedAlpha
+    from .setup import as_setup, default_scheme
     from .steady import march
 
     if dynamics is None:
         if params is None:
             raise MultiscaleError("give params (or an existing dynamics)")
-        dynamics = LinkageDynamics(params, crank_speed_rpm, steps_per_period, motors, nonlinear)
-    scheme = GeneralizedAlpha(0.8) if scheme is None else scheme
+        setup = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
+                         motors=motors, nonlinear=nonlinear, scheme=scheme)
+        dynamics, scheme = setup.dynamics(), setup.scheme
+    scheme = default_scheme(dynamics.params) if scheme is None else scheme
     u0, v0 = initial_state(dynamics, start, **kwargs)
     return march(dynamics, u0, v0, tol=tol, max_periods=max_periods, scheme=scheme)
 
@@ -1692,7 +1696,7 @@ def compare_starts(
     tol: float = 1e-4,
     max_periods: int = 500,
     scheme=None,
-    nonlinear: bool = True,
+    nonlinear: bool | None = None,
     steps_per_period: int | None = None,
     links: Sequence[str] = ("L2", "L3"),
     **kwargs,
@@ -1716,14 +1720,14 @@ def compare_starts(
     """
     import pandas as pd
 
-    from .dynamics import LinkageDynamics
-    from .newmark import GeneralizedAlpha
+    from .setup import as_setup
     from .steady import march, shooting
 
-    scheme = GeneralizedAlpha(0.8) if scheme is None else scheme
+    base = as_setup(params, scheme=scheme, nonlinear=nonlinear, steps_per_period=steps_per_period, motors=True)
+    scheme = base.scheme
     rows = []
     for s in np.atleast_1d(np.asarray(speeds_rpm, float)):
-        dyn = LinkageDynamics(params, float(s), steps_per_period, True, nonlinear)
+        dyn = base.replace(crank_speed_rpm=float(s)).dynamics()
         ref = shooting(dyn, scheme=scheme)
         ms = multiple_scales(dynamics=dyn, **kwargs)
         row = {"speed (r/min)": float(s)}

@@ -130,6 +130,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg.lapack import dgetrf, dgetrs
 
+from .errors import FivebarError
+
 try:  # optional: limit BLAS threads inside the time loop (see ``integrate(blas_threads=...)``)
     from threadpoolctl import ThreadpoolController
 except ImportError:  # pragma: no cover - the pinned environment has it
@@ -156,7 +158,7 @@ Array = NDArray[np.float64]
 
 
 # --- errors -----------------------------------------------------------------------------------
-class UnstableParametersError(ValueError):
+class UnstableParametersError(FivebarError, ValueError):
     """Integration parameters outside the unconditionally stable region."""
 
 
@@ -164,7 +166,7 @@ class UnstableParametersWarning(RuntimeWarning):
     """Parameters outside the unconditionally stable region were accepted on request."""
 
 
-class NewtonConvergenceError(RuntimeError):
+class NewtonConvergenceError(FivebarError, RuntimeError):
     """The Newton-Raphson iteration of one time step did not converge.
 
     Attributes

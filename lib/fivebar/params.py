@@ -16,13 +16,15 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from .errors import FivebarError
+
 __all__ = ["Motor", "Params", "ParameterError", "load_params", "DEFAULT_PARAMS_PATH"]
 
 #: The parameter file shipped with the project.
 DEFAULT_PARAMS_PATH = Path(__file__).resolve().parents[2] / "data" / "wang2011.toml"
 
 
-class ParameterError(ValueError):
+class ParameterError(FivebarError, ValueError):
     """A parameter file or override holds a missing, unknown or invalid entry."""
 
 
@@ -52,6 +54,8 @@ _SCHEMA: dict[str, tuple[Any, str]] = {
     "simulation.newmark_sigma": ("real", "-"),
     "simulation.newmark_theta": ("real", "-"),
     "simulation.steps_per_period": ("posint", "-"),
+    "simulation.scheme": (("choice", ("generalized-alpha", "newmark")), "-"),
+    "simulation.rho_infinity": ("unit", "-"),
     **{f"motor{i}.{k}": v for i in (1, 2) for k, v in _MOTOR_KEYS.items()},
     "assumptions.crank_speed_rpm": ("pos", "r/min"),
     "assumptions.speed_ratio": ("pos", "-"),
@@ -83,6 +87,7 @@ _RULE_TEXT = {
     "real": "a finite number",
     "posint": "a positive integer",
     "frac": "a number in [0, 1)",
+    "unit": "a number in [0, 1]",
     "slip": "a number in (0, 1)",
     "flag": "0 or 1",
 }
@@ -118,6 +123,7 @@ def _check(key: str, value: Any) -> Any:
         "nonneg": value >= 0,
         "real": True,
         "frac": 0 <= value < 1,
+        "unit": 0 <= value <= 1,
         "slip": 0 < value < 1,
     }[rule]
     if not ok:
@@ -197,6 +203,8 @@ class Params:
     newmark_sigma: float
     newmark_theta: float
     steps_per_period: int
+    scheme: str
+    rho_infinity: float
     motor1: Motor
     motor2: Motor
     crank_speed_rpm: float

@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from numpy.typing import ArrayLike
 
+from .errors import InputError
 from .kinematics import LINKS, positions
 from .params import Params
 
@@ -82,7 +83,7 @@ def use_book_style() -> None:
 def _scalar(name: str, value: ArrayLike) -> float:
     a = np.asarray(value, float)
     if a.ndim != 0 or not np.isfinite(a):
-        raise ValueError(f"{name} = {value!r} is not allowed: draw_linkage draws one configuration, give one finite angle (rad)")
+        raise InputError(f"{name} = {value!r} is not allowed: draw_linkage draws one configuration, give one finite angle (rad)")
     return float(a)
 
 

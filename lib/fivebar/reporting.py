@@ -22,6 +22,7 @@ from typing import Any
 
 import pandas as pd
 
+from .errors import FivebarError
 from .params import DEFAULT_PARAMS_PATH, Params, load_params
 
 __all__ = [
@@ -50,7 +51,7 @@ ERRATA_FIELDS = {
 _ASSUMPTION_FIELDS = ("unit", "reason", "alternative")
 
 
-class ReportError(ValueError):
+class ReportError(FivebarError, ValueError):
     """A data file for a table is missing, malformed or has an incomplete entry."""
 
 

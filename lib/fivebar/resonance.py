@@ -48,6 +48,7 @@ import pandas as pd
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import FivebarError
 from .dynamics import LinkageDynamics
 from .excitation import excitation_frequencies
 from .params import Params
@@ -70,7 +71,7 @@ _COLUMNS = ["condition", "type", "mode", "excitation", "excitation (Hz)", "natur
             "detuning (Hz)", "relative detuning", "note"]
 
 
-class ResonanceError(ValueError):
+class ResonanceError(FivebarError, ValueError):
     r"""Bad input to the resonance functions (the message names the value)."""
 
 

@@ -56,6 +56,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import InputError
 from .kinematics import LINKS, crank_laws, rigid_state
 from .params import Params
 
@@ -106,7 +107,7 @@ class InertiaModel:
     def __post_init__(self) -> None:
         for name, table in (("link_mass", self.link_mass), ("link_inertia", self.link_inertia), ("link_com", self.link_com)):
             if set(table) != set(_BARS):
-                raise ValueError(f"InertiaModel.{name} has keys {sorted(table)}: it must have exactly {list(_BARS)}")
+                raise InputError(f"InertiaModel.{name} has keys {sorted(table)}: it must have exactly {list(_BARS)}")
             for k, v in table.items():
                 _nonneg(f"InertiaModel.{name}[{k!r}]", v)
         for name in ("m01", "m02", "J1", "J2"):
@@ -119,7 +120,7 @@ class InertiaModel:
 
 def _nonneg(name: str, value: float) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) or not math.isfinite(value) or value < 0:
-        raise ValueError(f"{name} = {value!r} is not allowed: it must be a finite number >= 0")
+        raise InputError(f"{name} = {value!r} is not allowed: it must be a finite number >= 0")
 
 
 def inertia_model(params: Params, shaft_inertia: bool = False) -> InertiaModel:

@@ -20,8 +20,11 @@ The average-acceleration rule does not damp modes far above :math:`1/\Delta t` (
 axial modes, the curvature DOFs): their one-step amplification tends to :math:`-1`, so over an
 even number of steps their multiplier approaches :math:`+1` and :math:`\mathbf I -
 \boldsymbol\Phi` becomes ill-conditioned; heavily damped stiff modes behave alike.  The shooting
-Newton step is therefore solved in the least-squares sense, and a dissipative scheme
-(:class:`fivebar.newmark.GeneralizedAlpha`) can be passed instead of the paper's rule.
+Newton step is therefore solved in the least-squares sense, and damped: a step that does not
+reduce the periodicity residual is halved.  Worse, at S = 100 the paper's rule has an unstable
+discrete orbit (errata E26), so the default scheme is the parameter file's dissipative
+generalised-alpha method at S = 800 (:class:`fivebar.Setup`); the paper's rule is
+:data:`fivebar.PAPER_SCHEME`.  Errors and unstable results name the scheme and the remedy.
 """
 
 from __future__ import annotations
@@ -32,18 +35,20 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from .errors import FivebarError, InputError
 from .dynamics import LinkageDynamics
 from .elements import shape_functions
 from .kinematics import LINKS
-from .newmark import Newmark, NewtonConvergenceError, Scheme, integrate
+from .newmark import NewtonConvergenceError, Scheme, integrate
 from .params import Params
+from .setup import Setup, as_setup, default_scheme, scheme_name
 
 __all__ = ["SteadyState", "SteadyStateError", "march", "shooting", "steady_state"]
 
 _DIRECTIONS = ("transverse", "longitudinal", "chord")
 
 
-class SteadyStateError(RuntimeError):
+class SteadyStateError(FivebarError, RuntimeError):
     """The periodic steady state was not reached within the allowed periods or iterations."""
 
 
@@ -61,6 +66,8 @@ class SteadyState:
         Elastic displacements and velocities of the linkage subsystem, (S + 1, n) (SI).
     method
         "shooting" or "march".
+    scheme
+        The time integrator used.
     periods
         Periods integrated (march: to reach the tolerance; shooting: in all, Newton included).
     floquet_multipliers
@@ -75,6 +82,7 @@ class SteadyState:
     periods: int
     floquet_multipliers: NDArray | None = None
     residual: float = float("nan")
+    scheme: Scheme | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -88,6 +96,16 @@ class SteadyState:
         if self.floquet_multipliers is None:
             return None
         return bool(np.abs(self.floquet_multipliers).max() < 1.0)
+
+    @property
+    def note(self) -> str:
+        """What the stability of the orbit means, naming the scheme (and a remedy if unstable)."""
+        if self.floquet_multipliers is None:
+            return f"reached by marching with {_scheme_text(self.scheme)}; no Floquet multipliers"
+        rho = float(np.abs(self.floquet_multipliers).max())
+        if rho < 1.0:
+            return f"stable: largest Floquet multiplier {rho:.3g} with {_scheme_text(self.scheme)} at S = {self.dynamics.steps}"
+        return f"unstable: largest Floquet multiplier {rho:.3g}; " + _remedy(self.scheme, self.dynamics.steps)
 
     def _angles(self):
         return self.dynamics.crank_angles(self.t)
@@ -107,9 +125,9 @@ class SteadyState:
             (pure bending, what a mid-span strain gauge senses).
         """
         if link not in LINKS:
-            raise ValueError(f"link = {link!r} is not allowed: use one of {list(LINKS)}")
+            raise InputError(f"link = {link!r} is not allowed: use one of {list(LINKS)}")
         if direction not in _DIRECTIONS:
-            raise ValueError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
+            raise InputError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
         m = self.dynamics.model
         U = self.dynamics.expand(self.u)
         th1, th4 = self._angles()
@@ -150,6 +168,29 @@ class SteadyState:
         return dict(self._cache[key])
 
 
+def _scheme_text(scheme: Scheme | None) -> str:
+    return "an unknown scheme" if scheme is None else scheme_name(scheme)
+
+
+def _remedy(scheme: Scheme | None, S: int) -> str:
+    """Why a march or an orbit may fail because of the scheme, and what to do."""
+    if scheme is not None and scheme.rho_infinity >= 1.0:
+        return (f"{scheme_name(scheme)} does not damp the unresolved modes, and at S = {S} its discrete "
+                "periodic orbit of the time-varying (2.7) can be unstable (errata E26): use the default "
+                "scheme (fivebar.Setup(params).scheme, generalised-alpha) or S >= 800")
+    return (f"with {_scheme_text(scheme)} at S = {S}: if a finer step (larger steps_per_period) does not "
+            "change this, the instability is physical (for example the divergence of the lowest mode, "
+            "errata E28)")
+
+
+def _dynamics_and_scheme(dyn, scheme: Scheme | None):
+    """Accept a LinkageDynamics, a Setup or a Params; return the dynamics and the scheme."""
+    if isinstance(dyn, LinkageDynamics):
+        return dyn, default_scheme(dyn.params) if scheme is None else scheme
+    s = as_setup(dyn, scheme=scheme)
+    return s.dynamics(), s.scheme
+
+
 def _energy_norm(dyn: LinkageDynamics, u: NDArray, v: NDArray) -> NDArray:
     sd = dyn.step_data
     M, K = sd.M[0], sd.K[0]
@@ -188,7 +229,7 @@ def _period(dyn, u0, v0, scheme, store="all", sensitivity=False, rtol=1e-10, max
 
 
 def march(
-    dyn: LinkageDynamics,
+    dyn: LinkageDynamics | Setup | Params,
     u0: NDArray | None = None,
     v0: NDArray | None = None,
     tol: float = 1e-6,
@@ -197,73 +238,128 @@ def march(
 ) -> SteadyState:
     """March period by period until the state repeats to ``tol`` (relative, energy norm).
 
+    ``dyn`` is a :class:`~fivebar.dynamics.LinkageDynamics`, a :class:`fivebar.Setup` or a
+    :class:`fivebar.Params`; ``scheme`` defaults to the set-up's (the parameter file's).
     ``u0, v0`` default to rest (zeros).  Raises :class:`SteadyStateError` after
-    ``max_periods`` periods, naming the last relative change.
+    ``max_periods`` periods, naming the last relative change, and a
+    :class:`~fivebar.newmark.NewtonConvergenceError` naming the scheme and the remedy if a
+    step fails.
     """
     if not tol > 0:
-        raise ValueError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
-    scheme = Newmark() if scheme is None else scheme
+        raise InputError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
+    dyn, scheme = _dynamics_and_scheme(dyn, scheme)
     u = np.zeros(dyn.n) if u0 is None else np.asarray(u0, float)
     v = np.zeros(dyn.n) if v0 is None else np.asarray(v0, float)
     change = np.inf
     for k in range(1, max_periods + 1):
-        res = _period(dyn, u, v, scheme)
+        try:
+            res = _period(dyn, u, v, scheme)
+        except NewtonConvergenceError as exc:
+            raise NewtonConvergenceError(
+                f"marching failed in period {k}: {exc}. " + _remedy(scheme, dyn.steps),
+                exc.t, exc.residual, exc.iterations) from exc
         scale = _energy_norm(dyn, res.u, res.v).max()
         change = float(_energy_norm(dyn, res.u[-1] - u, res.v[-1] - v)) / max(scale, 1e-300)
         u, v = res.u[-1], res.v[-1]
         if change <= tol:
-            return SteadyState(dyn, res.t, res.u, res.v, "march", k, residual=change)
+            return SteadyState(dyn, res.t, res.u, res.v, "march", k, residual=change, scheme=scheme)
     raise SteadyStateError(
         f"no periodic steady state after {max_periods} periods: the last relative change over "
-        f"one period was {change:.3e} (tolerance {tol:.1e})"
+        f"one period was {change:.3e} (tolerance {tol:.1e}); " + _remedy(scheme, dyn.steps)
     )
 
 
 def shooting(
-    dyn: LinkageDynamics,
+    dyn: LinkageDynamics | Setup | Params,
     u0: NDArray | None = None,
     v0: NDArray | None = None,
     tol: float = 1e-10,
-    max_iter: int = 10,
+    max_iter: int = 20,
     scheme: Scheme | None = None,
 ) -> SteadyState:
-    """Newton's method on the periodicity condition, with the Newmark monodromy matrix.
+    """Damped Newton's method on the periodicity condition, with the Newmark monodromy matrix.
 
+    ``dyn`` is a :class:`~fivebar.dynamics.LinkageDynamics`, a :class:`fivebar.Setup` or a
+    :class:`fivebar.Params`; ``scheme`` defaults to the set-up's (the parameter file's).
     ``u0, v0`` default to the quasi-static state at t = 0.  Converged when the relative
-    periodicity residual (energy norm) is below ``tol``.  The returned state carries the
-    Floquet multipliers of the orbit.
+    periodicity residual (energy norm) is below ``tol``.  A Newton step that does not reduce
+    the residual (or whose period fails to integrate) is halved, up to 10 times.  The returned
+    state carries the Floquet multipliers of the orbit.
     """
     if not tol > 0:
-        raise ValueError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
-    scheme = Newmark() if scheme is None else scheme
+        raise InputError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
+    dyn, scheme = _dynamics_and_scheme(dyn, scheme)
     if u0 is None or v0 is None:
         us, vs = _initial_state(dyn)
         u0 = us if u0 is None else u0
         v0 = vs if v0 is None else v0
     n = dyn.n
-    x = np.concatenate([np.asarray(u0, float), np.asarray(v0, float)])
     mode = "uv" if scheme.is_newmark else "uva"
     sd = dyn.step_data
     D = np.sqrt(np.concatenate([np.diag(sd.K[0]), np.diag(sd.M[0])]))
-    r = np.inf
-    for it in range(1, max_iter + 1):
+
+    def evaluate(x):
+        """Period map at x: the result, the (u, v) monodromy, the absolute and relative residual."""
         res = _period(dyn, x[:n], x[n:], scheme, sensitivity=mode)
         Phi = res.monodromy[: 2 * n, : 2 * n] if mode == "uv" else _uv_monodromy(dyn, res.monodromy, n)
-        xT = np.concatenate([res.u[-1], res.v[-1]])
+        g = np.concatenate([res.u[-1], res.v[-1]]) - x
+        a = float(_energy_norm(dyn, g[:n], g[n:]))
         scale = _energy_norm(dyn, res.u, res.v).max()
-        r = float(_energy_norm(dyn, xT[:n] - x[:n], xT[n:] - x[n:])) / max(scale, 1e-300)
+        if not (np.isfinite(a) and np.isfinite(scale)):
+            raise NewtonConvergenceError("the period's motion is not finite", float(dyn.period), np.inf, 0)
+        return res, Phi, g, a, a / max(scale, 1e-300)
+
+    x = np.concatenate([np.asarray(u0, float), np.asarray(v0, float)])
+    try:
+        try:
+            res, Phi, g, a, r = evaluate(x)
+        except NewtonConvergenceError:
+            # a non-dissipative scheme can blow up within one period from the quasi-static
+            # start (errata E26): start instead from the orbit of the dissipative default
+            fallback = default_scheme(dyn.params)
+            if scheme.rho_infinity < 1.0 or fallback.rho_infinity >= 1.0:
+                raise
+            start = shooting(dyn, u0, v0, tol=tol, max_iter=max_iter, scheme=fallback)
+            x = np.concatenate([start.u[0], start.v[0]])
+            res, Phi, g, a, r = evaluate(x)
+    except NewtonConvergenceError as exc:
+        raise NewtonConvergenceError(
+            f"shooting could not integrate the first period: {exc}. " + _remedy(scheme, dyn.steps),
+            exc.t, exc.residual, exc.iterations) from exc
+    periods = 1
+    for it in range(1, max_iter + 1):
         if r <= tol:
             mult = scipy.linalg.eigvals(Phi)
             mult = mult[np.argsort(-np.abs(mult))]
-            return SteadyState(dyn, res.t, res.u, res.v, "shooting", it, mult, residual=r)
+            return SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, mult, residual=r, scheme=scheme)
         # Newton step on the periodicity condition, scaled so that every DOF counts by its
         # energy (the state mixes metres, radians and curvatures)
         A = D[:, None] * (Phi - np.eye(2 * n)) / D[None, :]
-        y = scipy.linalg.lstsq(A, -D * (xT - x), cond=1e-14)[0]
-        x = x + y / D
+        y = scipy.linalg.lstsq(A, -D * g, cond=1e-14)[0] / D
+        lam = 1.0
+        for _ in range(11):
+            try:
+                trial = evaluate(x + lam * y)
+                periods += 1
+                if trial[3] < a or trial[4] <= tol:
+                    break
+            except NewtonConvergenceError:
+                periods += 1
+            lam *= 0.5
+        else:
+            raise SteadyStateError(
+                f"shooting: no step along the Newton direction (halved 10 times) reduces the "
+                f"periodicity residual {r:.3e} in iteration {it}; " + _remedy(scheme, dyn.steps)
+            )
+        x = x + lam * y
+        res, Phi, g, a, r = trial
+    if r <= tol:
+        mult = scipy.linalg.eigvals(Phi)
+        mult = mult[np.argsort(-np.abs(mult))]
+        return SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, mult, residual=r, scheme=scheme)
     raise SteadyStateError(
         f"shooting did not converge in {max_iter} Newton iterations: relative periodicity "
-        f"residual {r:.3e} (tolerance {tol:.1e})"
+        f"residual {r:.3e} (tolerance {tol:.1e}); " + _remedy(scheme, dyn.steps)
     )
 
 
@@ -277,40 +373,37 @@ def _uv_monodromy(dyn: LinkageDynamics, Phi3: NDArray, n: int) -> NDArray:
 
 
 def steady_state(
-    params: Params,
+    setup: Setup | Params,
     method: str = "shooting",
-    steps_per_period: int = 100,
+    steps_per_period: int | None = None,
     crank_speed_rpm: float | None = None,
-    motors: bool = True,
-    nonlinear: bool = True,
+    motors: bool | None = None,
+    nonlinear: bool | None = None,
     scheme: Scheme | None = None,
     elements_per_link: tuple[int, int, int, int] | None = None,
 ) -> SteadyState:
     """The periodic steady state of the linkage over one period of the motion.
 
-    ``res = steady_state(params)``; ``res.midpoint("L2", "transverse")`` (mm over the
-    ``steps_per_period + 1`` samples from crank angle 0), ``res.floquet_multipliers``,
-    ``res.bending_stress()`` (Pa, per link).
+    ``res = steady_state(params)`` or ``steady_state(fivebar.Setup(params, ...))``;
+    ``res.midpoint("L2", "transverse")`` (mm over the S + 1 samples from crank angle 0),
+    ``res.floquet_multipliers``, ``res.stable``, ``res.note``, ``res.bending_stress()`` (Pa).
 
     Parameters
     ----------
+    setup
+        A :class:`fivebar.Setup`, or a :class:`fivebar.Params` (all other settings from the
+        parameter file: S = ``steps_per_period``, the ``[simulation] scheme``).
     method
-        "shooting" (Newton on periodicity, with Floquet multipliers) or "march" (period by
-        period from rest).
-    steps_per_period
-        S of (4.1) (section 5: 100).
-    crank_speed_rpm
-        Speed of both cranks (r/min); ``None`` takes the parameter file's assumption.
-    motors
-        ``False`` clamps the crank roots and leaves the motor elements out.
-    nonlinear
-        ``False`` drops the geometric nonlinearity f_nl.
-    scheme
-        Time integrator (default the average-acceleration Newmark rule).
+        "shooting" (damped Newton on periodicity, with Floquet multipliers) or "march" (period
+        by period from rest).
+    steps_per_period, crank_speed_rpm, motors, nonlinear, scheme, elements_per_link
+        Override the set-up's fields (``None`` keeps them): see :class:`fivebar.Setup`.  The
+        paper's rule is ``scheme=fivebar.PAPER_SCHEME``.
     """
     if method not in ("shooting", "march"):
-        raise ValueError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
-    dyn = LinkageDynamics(params, crank_speed_rpm, steps_per_period, motors, nonlinear, elements_per_link)
+        raise InputError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
+    s = as_setup(setup, steps_per_period=steps_per_period, crank_speed_rpm=crank_speed_rpm, motors=motors,
+                 nonlinear=nonlinear, scheme=scheme, elements_per_link=elements_per_link)
     if method == "shooting":
-        return shooting(dyn, scheme=scheme)
-    return march(dyn, scheme=scheme)
+        return shooting(s)
+    return march(s)

@@ -13,10 +13,10 @@ peak-to-peak of :math:`\mathbf K(t)^{-1}\mathbf F(t)`, itself exactly proportion
 :math:`\Omega^2`): it is 1 at low speed and peaks at the resonances that
 :mod:`fivebar.resonance` predicts.
 
-The default integrator is :class:`fivebar.newmark.GeneralizedAlpha` with
-:math:`\rho_\infty = 0.8`: the paper's average-acceleration rule at S = 100 has an unstable
-discrete periodic orbit for this model (a Floquet multiplier near 65, errata E26), so marching
-with it diverges; generalised-alpha is stable and within 0.1 % of the converged response.  The
+The integrator and S are the set-up's (:class:`fivebar.Setup`: the parameter file's
+generalised-alpha scheme, errata E26: the paper's average-acceleration rule at S = 100 has an
+unstable discrete periodic orbit for this model).  A sweep over many speeds may pass a smaller
+``steps_per_period`` to save time (S = 100 is within about 1 % up to 400 r/min).  The
 default model is linear (``nonlinear=False``): fast, and the resonance positions do not depend
 on the amplitude.
 
@@ -36,9 +36,10 @@ from numpy.typing import ArrayLike
 from scipy.signal import find_peaks
 from tqdm import tqdm
 
-from .dynamics import LinkageDynamics
-from .newmark import GeneralizedAlpha, Scheme
+from .errors import FivebarError
+from .newmark import Scheme
 from .params import Params
+from .setup import Setup, as_setup
 from .steady import SteadyState, shooting
 
 __all__ = ["SweepError", "clear_cache", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
@@ -47,7 +48,7 @@ _CACHE: dict[tuple, dict[str, float]] = {}
 _LINKS = ("L1", "L2", "L3", "L4")
 
 
-class SweepError(ValueError):
+class SweepError(FivebarError, ValueError):
     r"""Bad input to the speed sweep (the message names the value)."""
 
 
@@ -57,14 +58,15 @@ def clear_cache() -> None:
 
 
 def sweep_point(
-    params: Params,
+    params: Params | Setup,
     crank_speed_rpm: float,
     links: tuple[str, ...] = ("L2", "L3"),
     direction: str = "transverse",
-    steps_per_period: int = 100,
+    steps_per_period: int | None = None,
     scheme: Scheme | None = None,
     nonlinear: bool = False,
     motors: bool = True,
+    elements_per_link: tuple[int, int, int, int] | None = None,
 ) -> dict[str, float]:
     r"""Steady state at one crank speed: peak-to-peak midpoint amplitudes and their amplification.
 
@@ -73,9 +75,10 @@ def sweep_point(
     ``max |multiplier|`` (largest Floquet multiplier) and ``periods`` (shooting cost).
     A top-level function, so that it can run in worker processes.
     """
-    scheme = GeneralizedAlpha(0.8) if scheme is None else scheme
-    dyn = LinkageDynamics(params, crank_speed_rpm, steps_per_period, motors, nonlinear)
-    st = shooting(dyn, scheme=scheme)
+    setup = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
+                     scheme=scheme, nonlinear=nonlinear, motors=motors, elements_per_link=elements_per_link)
+    dyn = setup.dynamics()
+    st = shooting(dyn, scheme=setup.scheme)
     sd = dyn.step_data
     qs = np.linalg.solve(sd.K, sd.F[..., None])[..., 0]  # K(t)^-1 F(t) at the S steps
     qs = np.concatenate([qs, qs[:1]])
@@ -92,15 +95,15 @@ def sweep_point(
 
 
 def speed_sweep(
-    params: Params,
+    params: Params | Setup,
     speeds_rpm: ArrayLike,
     *,
     links: Sequence[str] = ("L2", "L3"),
     direction: str = "transverse",
-    steps_per_period: int = 100,
+    steps_per_period: int | None = None,
     scheme: Scheme | None = None,
-    nonlinear: bool = False,
-    motors: bool = True,
+    nonlinear: bool | None = None,
+    motors: bool | None = None,
     executor: cf.Executor | None = None,
     progress: bool = True,
     cache: bool = True,
@@ -116,19 +119,22 @@ def speed_sweep(
 
     Parameters
     ----------
-    params : Params
+    params : Params or Setup
+        The set-up (a Params takes the parameter file's S and scheme); its crank speed is
+        replaced by each of ``speeds_rpm``.
     speeds_rpm : array_like
         Crank speeds (r/min), positive; both cranks turn at them (``speed_ratio`` applies).
     links : sequence of str
         Links whose midpoint is recorded ("L1".."L4"; Figure 6: L2 and L3).
     direction : str
         As :meth:`fivebar.steady.SteadyState.midpoint` ("transverse", "longitudinal", "chord").
-    steps_per_period : int
-        S of (4.1).
+    steps_per_period : int, optional
+        S of (4.1); default the set-up's (the parameter file's).
     scheme : Scheme, optional
-        Default :class:`fivebar.newmark.GeneralizedAlpha` (0.8) (see the module docstring).
-    nonlinear, motors : bool
-        As :class:`fivebar.dynamics.LinkageDynamics` (default linear, with the motors).
+        Default the set-up's (the parameter file's generalised-alpha, see the module docstring).
+    nonlinear, motors : bool, optional
+        As :class:`fivebar.Setup`; ``None`` keeps a Setup's fields, and for a Params means
+        linear (the sweep's default), with the motors.
     executor : concurrent.futures.Executor, optional
         Runs the speeds in parallel (``submit``); None runs them here, one after the other.
     progress : bool
@@ -152,8 +158,12 @@ def speed_sweep(
         raise SweepError(f"direction = {direction!r} is not allowed: use 'transverse', 'longitudinal' or 'chord'")
     if executor is not None and not callable(getattr(executor, "submit", None)):
         raise SweepError(f"executor = {executor!r} is not allowed: give a concurrent.futures.Executor or None")
-    scheme = GeneralizedAlpha(0.8) if scheme is None else scheme
-    opts = (links, direction, int(steps_per_period), scheme, bool(nonlinear), bool(motors))
+    if nonlinear is None and isinstance(params, Params):
+        nonlinear = False
+    base = as_setup(params, steps_per_period=steps_per_period, scheme=scheme, nonlinear=nonlinear, motors=motors)
+    params = base.params
+    opts = (links, direction, base.steps_per_period, base.scheme, base.nonlinear, base.motors,
+            base.elements_per_link)
     key = lambda s: (params, float(s), opts)  # noqa: E731
     results: dict[float, dict[str, float]] = {}
     todo = []

@@ -1,0 +1,175 @@
+"""One linkage set-up: parameters, crank speed, S, motors, nonlinearity, mesh and scheme.
+
+Every analysis of the linkage (:func:`fivebar.steady_state`, :func:`fivebar.speed_sweep`,
+the resonance tables, the multiple-scales start, the control simulation) takes a
+:class:`Setup` or a :class:`~fivebar.params.Params`; :func:`as_setup` turns the second into
+the first, so each default lives once: a field left ``None`` takes the parameter file's entry
+(``Setup(params).steps_per_period == params.steps_per_period``), and the time integrator is
+built from the file's ``[simulation] scheme`` and ``rho_infinity`` (errata E26).
+
+>>> s = Setup(load_params(), crank_speed_rpm=300)
+>>> s.replace(steps_per_period=1600).dynamics()
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+from .errors import InputError, InputTypeError
+from .newmark import GeneralizedAlpha, Newmark, Scheme
+from .params import Params
+
+__all__ = ["PAPER_SCHEME", "Setup", "as_setup", "default_scheme", "min_steps_per_period", "scheme_name"]
+
+#: The paper's rule (section 5, read as gamma = 1/2, beta = 1/4: errata E2): the
+#: average-acceleration Newmark method.  At S = 100 its periodic orbit of the linkage is
+#: numerically unstable (errata E26); the chapters use it by this name where they reproduce
+#: the paper or show E26.
+PAPER_SCHEME: Newmark = Newmark(gamma=0.5, beta=0.25)
+
+
+def default_scheme(params: Params) -> Scheme:
+    """The time integrator the parameter file chooses (``[simulation] scheme``)."""
+    if params.scheme == "newmark":
+        return PAPER_SCHEME
+    return GeneralizedAlpha(params.rho_infinity)
+
+
+def scheme_name(scheme: Scheme) -> str:
+    """A short name of a scheme for messages: "the paper's average-acceleration rule", ..."""
+    if isinstance(scheme, Newmark):
+        if scheme.gamma == 0.5 and scheme.beta == 0.25:
+            return "the paper's average-acceleration rule (Newmark gamma = 1/2, beta = 1/4)"
+        return f"Newmark (gamma = {scheme.gamma:g}, beta = {scheme.beta:g})"
+    if isinstance(scheme, GeneralizedAlpha):
+        return f"generalised-alpha (rho_inf = {scheme.rho_inf:g})"
+    return type(scheme).__name__
+
+
+def min_steps_per_period(params: Params) -> int:
+    """Smallest S that resolves the motion: 2 m + 1 for the m Fourier terms of (2.10).
+
+    The rigid-body load of one period carries harmonics up to m times the crank frequency
+    (assumption ``fourier_terms``); fewer than 2 m + 1 samples per period alias them.
+    """
+    return 2 * int(params.fourier_terms) + 1
+
+
+@dataclass(frozen=True)
+class Setup:
+    """A linkage computation's set-up; ``None`` fields take the parameter file's entries.
+
+    ``s = Setup(params)``; ``s.replace(crank_speed_rpm=300)``; ``s.dynamics()``.
+
+    Attributes
+    ----------
+    params
+        The parameter set (:func:`fivebar.load_params`).
+    crank_speed_rpm
+        Speed of both cranks (r/min); default ``params.crank_speed_rpm``.
+    steps_per_period
+        S of (4.1); default ``params.steps_per_period``.  At least
+        :func:`min_steps_per_period` (2 m + 1).
+    motors
+        ``False`` clamps the crank roots and leaves the motor elements out.
+    nonlinear
+        ``False`` drops the geometric nonlinearity f_nl.
+    elements_per_link
+        Mesh (elements in L1..L4); default the paper's (1, 2, 2, 1).
+    scheme
+        Time integrator; default :func:`default_scheme` of the parameters (generalised-alpha,
+        errata E26).  The paper's rule is :data:`PAPER_SCHEME`.
+    """
+
+    params: Params
+    crank_speed_rpm: float | None = None
+    steps_per_period: int | None = None
+    motors: bool = True
+    nonlinear: bool = True
+    elements_per_link: tuple[int, int, int, int] | None = None
+    scheme: Scheme | None = None
+    _cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        p = self.params
+        if not isinstance(p, Params):
+            raise InputTypeError(f"params must be a fivebar.Params (load_params()), got {type(p).__name__}")
+        rpm = p.crank_speed_rpm if self.crank_speed_rpm is None else self.crank_speed_rpm
+        if isinstance(rpm, bool) or not isinstance(rpm, (int, float)) or not (math.isfinite(rpm) and rpm > 0):
+            raise InputError(f"crank_speed_rpm = {self.crank_speed_rpm!r} is not allowed: give a positive speed (r/min)")
+        S = p.steps_per_period if self.steps_per_period is None else self.steps_per_period
+        S_min = min_steps_per_period(p)
+        if isinstance(S, bool) or not isinstance(S, (int, float)) or S != int(S):
+            raise InputError(f"steps_per_period = {S!r} is not allowed: give an integer >= {S_min}")
+        if S < S_min:
+            raise InputError(
+                f"steps_per_period = {S!r} is too small to resolve the motion: the load of (2.10) has "
+                f"{p.fourier_terms} harmonics of the crank frequency, which need at least {S_min} steps "
+                f"per period (2 m + 1); the parameter file's default is {p.steps_per_period}"
+            )
+        for name in ("motors", "nonlinear"):
+            if not isinstance(getattr(self, name), bool):
+                raise InputError(f"{name} = {getattr(self, name)!r} is not allowed: give True or False")
+        epl = self.elements_per_link
+        if epl is not None:
+            epl = tuple(epl)
+            if len(epl) != 4 or any(isinstance(k, bool) or int(k) != k or k < 1 for k in epl):
+                raise InputError(
+                    f"elements_per_link = {self.elements_per_link!r} is not allowed: give four integers >= 1 (L1..L4)"
+                )
+            epl = tuple(int(k) for k in epl)
+        scheme = default_scheme(p) if self.scheme is None else self.scheme
+        if not isinstance(scheme, Scheme):
+            raise InputTypeError(
+                f"scheme must be a fivebar.newmark.Scheme (Newmark, HHT, GeneralizedAlpha), got {type(scheme).__name__}"
+            )
+        object.__setattr__(self, "crank_speed_rpm", float(rpm))
+        object.__setattr__(self, "steps_per_period", int(S))
+        object.__setattr__(self, "elements_per_link", epl)
+        object.__setattr__(self, "scheme", scheme)
+
+    def replace(self, **changes: Any) -> "Setup":
+        """A copy with some fields changed (validated again)."""
+        names = {f.name for f in fields(self) if f.init}
+        bad = sorted(set(changes) - names)
+        if bad:
+            raise InputError(f"unknown Setup field(s) {bad}: allowed are {sorted(names)}")
+        return replace(self, **changes)
+
+    @property
+    def run_params(self) -> Params:
+        """The parameters at this set-up's crank speed."""
+        if self.crank_speed_rpm == self.params.crank_speed_rpm:
+            return self.params
+        return self.params.replace(crank_speed_rpm=self.crank_speed_rpm)
+
+    def dynamics(self):
+        """The :class:`~fivebar.dynamics.LinkageDynamics` of this set-up (built once, cached)."""
+        if "dyn" not in self._cache:
+            from .dynamics import LinkageDynamics
+
+            self._cache["dyn"] = LinkageDynamics(
+                self.params, self.crank_speed_rpm, self.steps_per_period, self.motors, self.nonlinear,
+                self.elements_per_link,
+            )
+        return self._cache["dyn"]
+
+
+def as_setup(setup: Setup | Params, **overrides: Any) -> Setup:
+    """A :class:`Setup` from a Setup or a Params, with keyword overrides (``None`` = keep).
+
+    ``as_setup(params, steps_per_period=400)``; the keywords are the fields of :class:`Setup`;
+    those given as ``None`` are ignored, so the functions that take both a set-up and the old
+    keyword arguments can pass theirs through unchanged.
+    """
+    given = {k: v for k, v in overrides.items() if v is not None}
+    if isinstance(setup, Setup):
+        return setup.replace(**given) if given else setup
+    if isinstance(setup, Params):
+        return Setup(setup, **given)
+    raise InputTypeError(
+        f"expected a fivebar.Setup or fivebar.Params, got {type(setup).__name__}: "
+        "use fivebar.load_params() or fivebar.Setup(params, ...)"
+    )
