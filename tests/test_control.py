@@ -19,7 +19,7 @@ from fivebar.control import (
     elastic_frequencies,
     feedforward,
     linear_model,
-    modal_model,
+    control_modal_model,
     models_along_cycle,
     pd_servo,
     rigid_inertia,
@@ -55,12 +55,12 @@ def test_exactly_two_rigid_modes(th):
 def test_rigid_mass_is_the_lagrange_mass(th):
     """Phi_r^T M_p Phi_r equals the rigid 2-DOF mass matrix of fivebar.rigid (a second method:
     bodies and Lagrange's equations) with the shaft and the flat bars' rotary inertia added."""
-    mm = modal_model(P, *th, linkage=FL)
+    mm = control_modal_model(P, *th, linkage=FL)
     M_rig = mass_matrix(P, *th, inertia=rigid_inertia(P))
     assert np.allclose(mm.M_rigid, M_rig, rtol=1e-12, atol=1e-14)
     # without the rotary-inertia term of (A.8) the rigid inertia is fivebar.rigid's own, with shafts
     q = P.replace(rotary_inertia=0)
-    mq = modal_model(q, *th)
+    mq = control_modal_model(q, *th)
     assert np.allclose(mq.M_rigid, mass_matrix(q, *th, inertia=inertia_model(q, shaft_inertia=True)), rtol=1e-12)
 
 
@@ -68,12 +68,12 @@ def test_rigid_mass_is_the_lagrange_mass(th):
 def test_clamped_rotors_give_the_prescribed_motion_frequencies(th):
     """J0 -> infinity holds the rotors: the elastic frequencies tend to natural_frequencies
     with motors=True (less the rotors' whirl modes, which do not couple to the linkage)."""
-    f_big = modal_model(P, *th, n_modes=8, rotor_inertia_scale=1e9).frequencies
+    f_big = control_modal_model(P, *th, n_modes=8, rotor_inertia_scale=1e9).frequencies
     whirl = [np.sqrt(K[0, 0] / M[0, 0]) / (2 * np.pi) for M, K in (motor_element(P.motor1), motor_element(P.motor2))]
     f_tied = natural_frequencies(P, *th, n=14)
     linkage = np.array([f for f in f_tied if min(abs(f / w - 1) for w in whirl) > 1e-9])
     assert np.allclose(f_big, linkage[:8], rtol=1e-7)
-    f_free = modal_model(P, *th).frequencies
+    f_free = control_modal_model(P, *th).frequencies
     assert f_free[0] > 1.2 * linkage[0]  # freeing the rotors stiffens the first mode
 
 
@@ -137,7 +137,7 @@ def test_frequency_response_matches_newmark():
     a steady sinusoidal response exists; after 2 s the transients have decayed."""
     th = (0.7, 0.7)
     servo = pd_servo(P, 5.5)
-    mm = modal_model(P, *th, n_modes=6, linkage=FL)
+    mm = control_modal_model(P, *th, n_modes=6, linkage=FL)
     outputs = ("theta1", "w2", "w3")
     cl = mm.closed_loop(servo, outputs=outputs)
     M, K = FL.matrices(*th)
@@ -171,7 +171,7 @@ def test_statespace_names_and_modal_damping():
     zeta = -el.real / np.abs(el)
     assert np.allclose(zeta, P.damping_ratio, rtol=1e-9)
     # the deflection outputs see no rigid motion: a constant torque gives a bounded w
-    mm = modal_model(P, 0.3, 0.3, n_modes=4)
+    mm = control_modal_model(P, 0.3, 0.3, n_modes=4)
     C = mm.output(("w2", "w3"))
     k = 2 + 4
     assert np.allclose(C[:, [0, 1, k, k + 1]], 0.0, atol=1e-14)
@@ -182,7 +182,7 @@ def test_collocated_channel_interlaces(th):
     """Torque to rotor angle is collocated: without damping its zeros lie on the imaginary
     axis and alternate with the elastic poles, 0 < z1 < w1 < z2 < w2 ... (two more zeros at
     s = 0 cancel the other rigid mode's double pole)."""
-    mm = modal_model(P, *th, n_modes=6, damping_ratio=0.0, linkage=FL)
+    mm = control_modal_model(P, *th, n_modes=6, damping_ratio=0.0, linkage=FL)
     zs = mm.zeros("theta1", "tau1")
     w = np.sort(mm.omega)
     small = np.abs(zs) < 1e-3 * w[0]
@@ -210,7 +210,7 @@ def test_servo_margins_and_damping():
     import control
 
     servo = pd_servo(P, 5.5)
-    mm = modal_model(P, 1.0, 1.0, linkage=FL)
+    mm = control_modal_model(P, 1.0, 1.0, linkage=FL)
     for ch in (1, 2):
         gm, pm, _, wp = control.margin(mm.loop(servo, ch))
         assert 55 < pm < 75 and wp / (2 * np.pi) < 15
@@ -291,7 +291,7 @@ def test_bad_inputs_name_the_value():
     with pytest.raises(ValueError, match="rotor_inertia_scale = -1"):
         FlexibleLinkage(P, rotor_inertia_scale=-1)
     with pytest.raises(ValueError, match="damping_ratio = 1.5"):
-        modal_model(P, 0.0, 0.0, damping_ratio=1.5)
+        control_modal_model(P, 0.0, 0.0, damping_ratio=1.5)
     with pytest.raises(ValueError, match="bandwidth = -2"):
         pd_servo(P, -2)
     with pytest.raises(ValueError, match="measure = 'tip'"):
@@ -299,9 +299,9 @@ def test_bad_inputs_name_the_value():
     with pytest.raises(ValueError, match="Servo.kp"):
         Servo((1.0, -1.0), (0.1, 0.1))
     with pytest.raises(ValueError, match="channel = 3"):
-        modal_model(P, 0.0, 0.0).loop(pd_servo(P, 5.0), 3)
+        control_modal_model(P, 0.0, 0.0).loop(pd_servo(P, 5.0), 3)
     with pytest.raises(ValueError, match="modes = 7"):
-        damping_lqr(modal_model(P, 0.0, 0.0), pd_servo(P, 5.0), modes=7)
+        damping_lqr(control_modal_model(P, 0.0, 0.0), pd_servo(P, 5.0), modes=7)
     with pytest.raises(ValueError, match="do not match"):
         schedule(np.zeros((2, 3)), [0.0, 1.0, 2.0])
     with pytest.raises(ValueError, match="increase strictly"):
@@ -309,4 +309,4 @@ def test_bad_inputs_name_the_value():
     with pytest.raises(ValueError, match="start = 'moving'"):
         simulate_cycle(P, pd_servo(P, 5.0), start="moving")
     with pytest.raises(ValueError, match="input = 'tau2'"):
-        modal_model(P, 0.0, 0.0).zeros("w2", "tau2")
+        control_modal_model(P, 0.0, 0.0).zeros("w2", "tau2")

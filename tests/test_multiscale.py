@@ -12,7 +12,7 @@ from fivebar.multiscale import (
     Harmonic,
     ModalSystem,
     MultiscaleError,
-    NewtonError,
+    NewtonConvergenceError,
     Parametric,
     backbone,
     first_approximation,
@@ -456,10 +456,10 @@ def test_acceleration_is_equation_34():
 
 
 def test_newton_failure_raises_a_named_error():
-    with pytest.raises(NewtonError, match=r"residual .* iterations") as info:
+    with pytest.raises(NewtonConvergenceError, match=r"residual .* iterations") as info:
         newton(lambda x: x**2 + 1.0, [3.0], maxiter=5, t=0.25)
     assert "t = 0.25 s" in str(info.value) and info.value.iterations <= 5 and info.value.residual >= 1.0
-    with pytest.raises(NewtonError, match="singular Jacobian"):
+    with pytest.raises(NewtonConvergenceError, match="singular Jacobian"):
         newton(lambda x: x**2 + 1.0, [0.0], lambda x: np.diag(2 * x))
     root = newton(lambda x: x**2 - 2.0, [1.0], lambda x: np.diag(2 * x), tol=1e-14)
     assert root[0] == pytest.approx(np.sqrt(2), rel=1e-14)

@@ -5,10 +5,12 @@ A library and a Jupyter Book reproducing and extending R.-G. Wang, G.-W. Cai and
 controllable close-chain linkage mechanism system*, Mathematical Problems in Engineering
 2011, 254547.  Equation numbers in docstrings are the paper's.
 
-The facade below is what the chapters use; the modules hold the rest.
+The facade below is what the chapters use; the modules hold the rest.  Units at the API: SI,
+or the unit in the name (``crank_speed_rpm``, ``midpoint(...)`` in mm as its docstring says).
 """
 
 from .control import linear_model
+from .errors import FivebarError
 from .elements import beam_element, motor_element
 from .kinematics import GeometryError, positions
 from .excitation import excitation_frequencies, load_expansion
@@ -17,11 +19,15 @@ from .multiscale import MultipleScalesResponse, multiple_scales, multiple_scales
 from .newmark import GeneralizedAlpha, HHT, Newmark, NewtonConvergenceError, UnstableParametersError, integrate
 from .params import DEFAULT_PARAMS_PATH, Motor, ParameterError, Params, load_params
 from .resonance import campbell_diagram, resonance_table
+from .setup import PAPER_SCHEME, Setup
 from .steady import SteadyState, SteadyStateError, steady_state
 from .sweep import speed_sweep
 
 __all__ = [
     "DEFAULT_PARAMS_PATH",
+    "FivebarError",
+    "PAPER_SCHEME",
+    "Setup",
     "GeneralizedAlpha",
     "GeometryError",
     "HHT",

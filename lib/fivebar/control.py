@@ -132,12 +132,12 @@ __all__ = [
     "OUTPUTS",
     "DEFAULT_OUTPUTS",
     "FlexibleLinkage",
-    "ModalModel",
+    "ControlModalModel",
     "Servo",
     "CycleSimulation",
     "rigid_inertia",
     "feedforward",
-    "modal_model",
+    "control_modal_model",
     "linear_model",
     "models_along_cycle",
     "elastic_frequencies",
@@ -148,7 +148,7 @@ __all__ = [
     "simulate_cycle",
 ]
 
-#: Output names offered by :meth:`ModalModel.statespace`, see the module docstring.
+#: Output names offered by :meth:`ControlModalModel.statespace`, see the module docstring.
 OUTPUTS = (
     "theta1", "theta4", "omega1", "omega4", "crank1", "crank4", "crank_rate1", "crank_rate4",
     "rigid1", "rigid4", "w2", "w3",
@@ -435,10 +435,10 @@ class FlexibleLinkage:
 
 # --- the reduced model ---------------------------------------------------------------------------
 @dataclass
-class ModalModel:
+class ControlModalModel:
     """Modal reduction of the free-rotor linkage at one frozen configuration.
 
-    Build it with :func:`modal_model`.  The state is ``x = (eta_r, eta_e, eta_r', eta_e')``,
+    Build it with :func:`control_modal_model`.  The state is ``x = (eta_r, eta_e, eta_r', eta_e')``,
     ``eta_r`` the rigid crank angles (rad) and ``eta_e`` the mass-normalised elastic modal
     coordinates.
 
@@ -606,7 +606,7 @@ def _outputs(names: Sequence[str]) -> tuple[str, ...]:
     return names
 
 
-def modal_model(
+def control_modal_model(
     params: Params,
     theta1: float,
     theta4: float,
@@ -616,10 +616,10 @@ def modal_model(
     elements_per_link: tuple[int, int, int, int] | None = None,
     damping_ratio: float | None = None,
     linkage: FlexibleLinkage | None = None,
-) -> ModalModel:
+) -> ControlModalModel:
     """The reduced model (2 rigid + ``n_modes`` elastic modes) at a frozen configuration.
 
-    ``mm = modal_model(params, theta1, theta4)``; ``mm.statespace()``.
+    ``mm = control_modal_model(params, theta1, theta4)``; ``mm.statespace()``.
 
     Parameters
     ----------
@@ -658,7 +658,7 @@ def modal_model(
     B = np.zeros((2 * k, 2))
     B[k:k + 2] = np.linalg.inv(Mr)  # Phi_r^T B = I
     B[k + 2:] = Phi_e.T @ fl.B
-    return ModalModel(fl, th1, th4, omega, float(zeta), M, K, Phi_r, Phi_e, Mr, A, B)
+    return ControlModalModel(fl, th1, th4, omega, float(zeta), M, K, Phi_r, Phi_e, Mr, A, B)
 
 
 def linear_model(
@@ -677,9 +677,9 @@ def linear_model(
     ``theta1, theta4``: rotor angles (rad); ``w2, w3``: transverse midpoint deflections of L2,
     L3 relative to the rigid motion (m); others from :data:`OUTPUTS`.  Two rigid modes (free
     integrators) and ``n_modes`` elastic modes with modal damping.  Keyword arguments go to
-    :func:`modal_model`.
+    :func:`control_modal_model`.
     """
-    return modal_model(params, theta1, theta4, n_modes, **kwargs).statespace(outputs)
+    return control_modal_model(params, theta1, theta4, n_modes, **kwargs).statespace(outputs)
 
 
 def _cycle_angles(params: Params, crank_angles: ArrayLike) -> tuple[NDArray, NDArray]:
@@ -704,7 +704,7 @@ def models_along_cycle(
     fl = kwargs.pop("linkage", None) or FlexibleLinkage(
         params, kwargs.pop("elements_per_link", None), kwargs.pop("rotor_inertia_scale", 1.0)
     )
-    return [modal_model(params, a, b, n_modes, linkage=fl, **kwargs).statespace(outputs) for a, b in zip(th1, th4)]
+    return [control_modal_model(params, a, b, n_modes, linkage=fl, **kwargs).statespace(outputs) for a, b in zip(th1, th4)]
 
 
 def elastic_frequencies(
@@ -776,11 +776,11 @@ def pd_servo(
     return Servo(tuple(J * w**2), tuple(2.0 * z * J * w), measure)
 
 
-def damping_lqr(mm: ModalModel, servo: Servo, modes: int = 2, q: float = 1.0, r: float = 1.0) -> NDArray:
+def damping_lqr(mm: ControlModalModel, servo: Servo, modes: int = 2, q: float = 1.0, r: float = 1.0) -> NDArray:
     """LQR state feedback that adds damping to the lowest elastic modes, on top of a servo.
 
     ``K_x = damping_lqr(mm, servo)``; the total control is u = -F x - K_x x with F the servo
-    (:meth:`ModalModel.feedback_matrix`); check the loop with :meth:`ModalModel.closed_loop`.
+    (:meth:`ControlModalModel.feedback_matrix`); check the loop with :meth:`ControlModalModel.closed_loop`.
 
     Designed on the servo-closed plant (A - B F, B) with the cost
     ``J = int( q sum_{j<=modes} (omega_j^2 eta_j^2 + eta_j'^2) + r u^T u ) dt``: ``q`` weighs twice
@@ -872,7 +872,7 @@ def damping_schedule(
     fl = FlexibleLinkage(params)
     out = []
     for x1, x4 in zip(th1, th4):
-        mm = modal_model(params, x1, x4, n_modes, linkage=fl)
+        mm = control_modal_model(params, x1, x4, n_modes, linkage=fl)
         out.append(np.stack(mm.physical_gains(damping_lqr(mm, servo, modes, q, r))))
     return schedule(np.array(out), a)
 

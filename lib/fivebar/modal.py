@@ -83,6 +83,11 @@ def modes(
     ``n=None`` returns all modes.  Pass a prebuilt ``model`` to skip the assembly set-up.
     """
     m = _model(params, motors, elements_per_link, model)
+    if n is not None and n > m.n:
+        raise InputError(
+            f"n = {n!r} modes is more than the model has: at most {m.n} (its DOFs; refine the mesh "
+            "with elements_per_link for more)"
+        )
     M, K = m.matrices(theta1, theta4)
     f, V = _eig(M, K, n)
     return Modes(f, V, m)

@@ -75,7 +75,7 @@ autonomous,
 its fixed points (Newton on :math:`(\mathrm{Re}\,\mathbf B, \mathrm{Im}\,\mathbf B)`) are the
 periodic responses, with :math:`a_r=|B_r|`, :math:`\theta_r = \nu_r t + \arg B_r` in (3.7),
 and the eigenvalues of the Jacobian decide their stability.  The *physical* amplitude of the
-free part is :math:`2a_r` (``SteadyState.amplitude``).
+free part is :math:`2a_r` (``ModulationSteadyState.amplitude``).
 
 For one mode with :math:`S_r = \kappa B + 3\Gamma|B|^2B + f` (primary resonance,
 :math:`\nu_r=\sigma=\Omega-\omega_r`) the fixed points satisfy, with :math:`X=(2a_r)^2`,
@@ -104,6 +104,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import FivebarError
+from .newmark import NewtonConvergenceError
 from .steady import SteadyState as _LinkageSteadyState
 
 __all__ = [
@@ -113,11 +114,10 @@ __all__ = [
     "ModalSystem",
     "ModeCoefficients",
     "MultiscaleError",
-    "NewtonError",
     "Parametric",
     "SecularTerm",
     "SlowFlow",
-    "SteadyState",
+    "ModulationSteadyState",
     "backbone",
     "first_approximation",
     "frequency_response",
@@ -153,27 +153,16 @@ class MultiscaleError(FivebarError, ValueError):
     """Bad input to the multiple-scales functions (the message names the value)."""
 
 
-class NewtonError(FivebarError, RuntimeError):
-    """A Newton-Raphson iteration did not converge.
-
-    Attributes
-    ----------
-    residual : float
-        Max-norm of the last residual.
-    iterations : int
-        Iterations made.
-    t : float or None
-        Time (s) the solve belongs to, if any.
-    """
-
-    def __init__(self, message: str, residual: float, iterations: int, t: float | None = None):
-        super().__init__(message)
-        self.residual = residual
-        self.iterations = iterations
-        self.t = t
+#: Former name of :class:`fivebar.newmark.NewtonConvergenceError` (one error for every Newton
+#: iteration of the library); kept for old code, not exported.
+NewtonError = NewtonConvergenceError
 
 
 # --- input ------------------------------------------------------------------------------------
+def _newton_error(message: str, residual: float, iterations: int, t: float | None = None) -> NewtonConvergenceError:
+    return NewtonConvergenceError(message, t, residual, iterations)
+
+
 def _real(name: str, x: ArrayLike, shape: tuple[int, ...] | None = None) -> Array:
     try:
         a = np.array(x, dtype=float)
@@ -412,7 +401,7 @@ def newton(
 
     Raises
     ------
-    NewtonError
+    NewtonConvergenceError
         No convergence in ``maxiter`` iterations, a singular Jacobian, a non-finite residual or
         a step that no halving makes decrease the residual; the message names the residual,
         the iterations and (if given) the time.
@@ -422,7 +411,7 @@ def newton(
     r = np.asarray(fun(x), dtype=float).ravel()
     norm = float(np.max(np.abs(r))) if r.size else 0.0
     if not np.isfinite(norm):
-        raise NewtonError(f"Newton-Raphson{at}: residual is not finite at the initial guess", norm, 0, t)
+        raise _newton_error(f"Newton-Raphson{at}: residual is not finite at the initial guess", norm, 0, t)
     for it in range(maxiter):
         if norm <= tol:
             return x
@@ -432,7 +421,7 @@ def newton(
         except np.linalg.LinAlgError:
             dx = np.full_like(x, np.nan)
         if not np.all(np.isfinite(dx)):
-            raise NewtonError(
+            raise _newton_error(
                 f"Newton-Raphson{at}: singular Jacobian after {it} iterations (residual {norm:.3e})", norm, it, t
             )
         lam = 1.0
@@ -444,7 +433,7 @@ def newton(
                 break
             lam *= 0.5
         else:
-            raise NewtonError(
+            raise _newton_error(
                 f"Newton-Raphson{at}: no step along the Newton direction reduces the residual "
                 f"{norm:.3e} (tol {tol:.3e}) after {it + 1} iterations",
                 norm, it + 1, t,
@@ -452,7 +441,7 @@ def newton(
         x, r, norm = xn, rn, nn
     if norm <= tol:
         return x
-    raise NewtonError(
+    raise _newton_error(
         f"Newton-Raphson{at} did not converge: residual {norm:.3e} > tol {tol:.3e} after {maxiter} iterations",
         norm, maxiter, t,
     )
@@ -657,14 +646,14 @@ class SlowFlow:
         dX, dY = dB + dBc, 1j * (dB - dBc)
         return np.block([[dX.real, dY.real], [dX.imag, dY.imag]])
 
-    def state(self, B: ArrayLike) -> SteadyState:
-        """The :class:`SteadyState` at the frame amplitudes ``B`` (its stability evaluated)."""
+    def state(self, B: ArrayLike) -> ModulationSteadyState:
+        """The :class:`ModulationSteadyState` at the frame amplitudes ``B`` (its stability evaluated)."""
         B = np.asarray(B, complex)
         x = np.concatenate([B.real, B.imag])
         lam = np.linalg.eigvals(self.jacobian(x))
-        return SteadyState(self, B, lam)
+        return ModulationSteadyState(self, B, lam)
 
-    def steady_state(self, guess: ArrayLike | None = None, *, rtol: float = 1e-11, maxiter: int = 50) -> SteadyState:
+    def steady_state(self, guess: ArrayLike | None = None, *, rtol: float = 1e-11, maxiter: int = 50) -> ModulationSteadyState:
         """A fixed point of the autonomous slow flow, by :func:`newton` from ``guess``.
 
         Parameters
@@ -678,7 +667,7 @@ class SlowFlow:
 
         Raises
         ------
-        NewtonError
+        NewtonConvergenceError
         """
         n = self.system.n
         B0 = np.zeros(n, complex) if guess is None else np.asarray(guess, complex)
@@ -692,7 +681,7 @@ class SlowFlow:
 
 
 @dataclass(frozen=True, eq=False)
-class SteadyState:
+class ModulationSteadyState:
     """A steady state of the slow flow: the periodic first approximation (3.7).
 
     Attributes
@@ -960,8 +949,8 @@ def primary_amplitudes(coeffs: ModeCoefficients, w: float, zeta: float, sigma: f
     return out
 
 
-def _unique(states: list[SteadyState], mode: int) -> list[SteadyState]:
-    out: list[SteadyState] = []
+def _unique(states: list[ModulationSteadyState], mode: int) -> list[ModulationSteadyState]:
+    out: list[ModulationSteadyState] = []
     for st in sorted(states, key=lambda s: s.amplitude[mode]):
         if not out or np.max(np.abs(st.B - out[-1].B)) > 1e-7 * max(1e-300, np.max(np.abs(st.B))):
             out.append(st)
@@ -978,7 +967,7 @@ def primary_resonance(
     detuning: float = DEFAULT_DETUNING,
     quadratic_correction: bool = True,
     rtol: float = 1e-11,
-) -> list[SteadyState]:
+) -> list[ModulationSteadyState]:
     """Every steady branch of the primary resonance :math:`\\Omega\\approx\\omega_r`.
 
     Call form::
@@ -1005,7 +994,7 @@ def primary_resonance(
 
     Returns
     -------
-    list of SteadyState
+    list of ModulationSteadyState
         Sorted by the amplitude of ``mode`` (one branch, or three in the bistable range).
     """
     mode = _check_mode(system, mode)
@@ -1167,7 +1156,7 @@ def parametric_response(
     harmonics: Sequence[Harmonic] = (),
     rtol: float = 1e-11,
     **kwargs,
-) -> list[SteadyState]:
+) -> list[ModulationSteadyState]:
     """Nontrivial steady states of the principal parametric resonance :math:`\\Omega\\approx2\\omega_r`.
 
     The response is at :math:`\\Omega/2`.  With :math:`\\sigma = \\Omega-2\\omega_r` and
@@ -1180,7 +1169,7 @@ def parametric_response(
 
     Returns
     -------
-    list of SteadyState, ascending amplitude (empty if none).
+    list of ModulationSteadyState, ascending amplitude (empty if none).
     """
     mode = _check_mode(system, mode)
     w, z = system.w[mode], system.zeta[mode]
@@ -1504,13 +1493,13 @@ class MultipleScalesResponse(_LinkageSteadyState):
     :math:`\boldsymbol\Phi\dot{\boldsymbol\eta} + \dot{\boldsymbol\Phi}\boldsymbol\eta`
     at the S + 1 samples, so ``midpoint(link, direction)``, ``peak_to_peak`` and
     ``bending_stress`` work as for the numerical steady state.  Extra attributes: ``modal``
-    (:class:`ModalModel`), ``slow`` (the slow-flow :class:`SteadyState`: ``a``, ``theta0``,
+    (:class:`ModalModel`), ``slow`` (the slow-flow :class:`ModulationSteadyState`: ``a``, ``theta0``,
     ``stable``), ``flow`` (:class:`SlowFlow`), ``eta`` and ``eta_dot`` ((S + 1, k)), and
     ``detuning``, the relative resonance tolerance used.
     """
 
     modal: ModalModel | None = None
-    slow: SteadyState | None = None
+    slow: ModulationSteadyState | None = None
     flow: SlowFlow | None = None
     eta: Array | None = field(default=None, repr=False)
     eta_dot: Array | None = field(default=None, repr=False)
@@ -1539,7 +1528,7 @@ def multiple_scales(
     Call forms::
 
         ms = multiple_scales(params)                     # default speed, 2 modes
-        ms.midpoint("L2", "transverse")                  # mm over S + 1 samples, as SteadyState
+        ms.midpoint("L2", "transverse")                  # mm over S + 1 samples, as fivebar.SteadyState
         ms.slow.a, ms.slow.theta0, ms.slow.stable        # a_r, theta_r by Newton-Raphson
         ms.u[0], ms.v[0]                                 # initial state of multiple-scales-Newmark
 

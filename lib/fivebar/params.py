@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+from importlib import resources
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -20,8 +21,9 @@ from .errors import FivebarError
 
 __all__ = ["Motor", "Params", "ParameterError", "load_params", "DEFAULT_PARAMS_PATH"]
 
-#: The parameter file shipped with the project.
-DEFAULT_PARAMS_PATH = Path(__file__).resolve().parents[2] / "data" / "wang2011.toml"
+#: The parameter file shipped with the package (``fivebar/data/wang2011.toml``, package data
+#: read through :mod:`importlib.resources`; ``data/wang2011.toml`` of the repository links to it).
+DEFAULT_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "wang2011.toml"))
 
 
 class ParameterError(FivebarError, ValueError):

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +37,7 @@ __all__ = [
 ]
 
 #: The errata file shipped with the project.
-ERRATA_PATH = Path(__file__).resolve().parents[2] / "data" / "errata.toml"
+ERRATA_PATH = Path(str(resources.files("fivebar") / "data" / "errata.toml"))
 
 #: Field of an ``[[erratum]]`` entry -> column of :func:`errata_table`.
 ERRATA_FIELDS = {
