@@ -178,3 +178,21 @@ def test_campbell_diagram(params):
     plt.close(ax.figure)
     with pytest.raises(ResonanceError):
         campbell_diagram(params, [100.0])
+
+
+def test_campbell_data_is_numbers_and_its_crossings_solve_k_omega_equals_frequency(params):
+    from fivebar.plotting import campbell_plot
+    from fivebar.resonance import CampbellData, campbell_data
+
+    cd = campbell_data(params, np.linspace(100, 3000, 50), n_modes=2)
+    assert isinstance(cd, CampbellData) and cd.frequencies.shape[1] == 2
+    assert np.all(cd.low <= cd.mean) and np.all(cd.mean <= cd.high)
+    for k in (1, 2, 3):
+        for eff in (False, True):
+            x, y = cd.crossings(k, effective=eff)
+            assert np.allclose(k * x / 60, y, rtol=1e-12)  # on the line k Omega
+            f = cd.effective(x) if eff else np.broadcast_to(cd.mean, (len(x), 2))
+            assert np.all(np.isclose(f, y[:, None], rtol=1e-10).any(axis=1))  # and on a mode's curve
+    ax = campbell_plot(cd)
+    assert len(ax.get_legend().get_texts()) == 4
+    plt.close(ax.figure)

@@ -124,9 +124,10 @@ from .errors import ComputationError, InputError, InputTypeError
 from .assembly import Model, build_model
 from .elements import gauss_points, motor_shape_functions, shaft_section
 from .kinematics import LINKS, crank_laws, rigid_state
-from .newmark import PeriodicStepData, System, integrate
+from .newmark import PeriodicStepData, Scheme, System, integrate
 from .params import Motor, Params
 from .rigid import InertiaModel, inertia_model, inverse_dynamics
+from .setup import Setup, as_setup
 
 __all__ = [
     "OUTPUTS",
@@ -972,22 +973,23 @@ def _reference(ref, fl: FlexibleLinkage, params: Params, S: int) -> tuple[NDArra
 
 
 def simulate_cycle(
-    params: Params,
+    params: Params | Setup,
     servo: Servo,
     damping: Callable[[ArrayLike], NDArray] | None = None,
     *,
     reference=None,
     periods: int = 3,
-    steps_per_period: int = 1000,
+    steps_per_period: int | None = None,
     crank_speed_rpm: float | None = None,
     start: str = "quasi-static",
+    scheme: Scheme | None = None,
 ) -> CycleSimulation:
     """Closed-loop kineto-elastodynamics with free rotors along the nominal motion.
 
     ``sim = simulate_cycle(params, servo)``; ``sim.peak_to_peak("L2")``.
 
-    Integrates, with the average-acceleration Newmark rule (:func:`fivebar.newmark.integrate`)
-    on the full-order model of :class:`FlexibleLinkage` (no modal truncation),
+    Integrates, with the set-up's scheme (the parameter file's generalised-alpha by default,
+    errata E26; :func:`fivebar.newmark.integrate`) on the full-order model of :class:`FlexibleLinkage` (no modal truncation),
 
     M_p p'' + C_p p' + K_p p = -M_p a_r + B (tau_ff - G_s (p, p') - G_d (p - p_ref, p' - p_ref')),
 
@@ -1001,7 +1003,8 @@ def simulate_cycle(
     Parameters
     ----------
     params
-        Parameter set.
+        Parameter set, or a :class:`fivebar.Setup` (its crank speed, S and scheme are the
+        defaults of the keywords below; motors, nonlinearity and mesh do not apply here).
     servo
         The PD servo (it acts on the deviation of the measured angle from the crank laws).
     damping
@@ -1013,17 +1016,19 @@ def simulate_cycle(
     periods
         Periods of the motion to integrate (the last one is taken as the steady state).
     steps_per_period
-        Newmark steps per period.
+        Steps per period; ``None`` takes the set-up's (the parameter file's).
     crank_speed_rpm
-        Crank speed (r/min); ``None`` takes the parameters'.
+        Crank speed (r/min); ``None`` takes the set-up's (the parameters').
     start
         "quasi-static" (the static deflection under the load at t = 0, at rest relative to
         it) or "rest" (p = 0, p' = 0: the linkage released undeformed at speed).
+    scheme
+        Time integrator; ``None`` takes the set-up's.
     """
-    if crank_speed_rpm is not None:
-        params = params.replace(crank_speed_rpm=crank_speed_rpm)
+    setup = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period, scheme=scheme)
+    params = setup.run_params
     periods = _count("periods", periods, 1, 10**6)
-    S = _count("steps_per_period", steps_per_period, 2, 10**7)
+    S = _count("steps_per_period", setup.steps_per_period, 2, 10**7)
     if start not in ("quasi-static", "rest"):
         raise InputError(f"start = {start!r} is not allowed: use 'quasi-static' or 'rest'")
     if not isinstance(servo, Servo):
@@ -1064,7 +1069,7 @@ def simulate_cycle(
     else:
         qs = [np.linalg.solve(Kc[k], F[k]) for k in (S - 1, 0, 1)]
         u0, v0 = qs[1], (qs[2] - qs[0]) / (2 * dt)
-    res = integrate(System(M[0], Cc[0], Kc[0]), u0, v0, 0.0, dt, periods * S, step_data=sd)
+    res = integrate(System(M[0], Cc[0], Kc[0]), u0, v0, 0.0, dt, periods * S, setup.scheme, step_data=sd)
     k = np.arange(len(res.t)) % S
     W = fl.elastic_midpoint_rows(laws[0], laws[3], Phi)  # (S, 2, n)
     w = np.einsum("kij,kj->ki", W[k], res.u)

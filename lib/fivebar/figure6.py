@@ -15,8 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .newmark import Scheme
 from .params import Params
 from .rigid import motor_torques
+from .setup import PAPER_SCHEME
 from .steady import SteadyState, steady_state
 
 __all__ = ["Variant", "ASSUMPTION_VARIANTS", "assumption_effects", "speed_table"]
@@ -74,20 +76,23 @@ def assumption_effects(
     variants: tuple[Variant, ...] = ASSUMPTION_VARIANTS,
     steps_per_period: int = 100,
     nonlinear: bool = False,
+    scheme: Scheme = PAPER_SCHEME,
 ) -> pd.DataFrame:
     """Peak-to-peak midpoint deflections and peak bending stress, default and each variant.
 
     ``df = assumption_effects(params)``: one row for the defaults and one per variant, with
     the change of the L2 and L3 transverse peak-to-peak deflection from the default (%).
-    The steady states come from :func:`fivebar.steady.steady_state` (shooting, the paper's
-    rule, S = ``steps_per_period``); ``nonlinear=False`` by default, since the geometric
+    The steady states come from :func:`fivebar.steady.steady_state` (shooting with the
+    paper's S = 100 and rule by default: this module reproduces the paper; pass
+    ``steps_per_period=None, scheme=None`` for the library's defaults); ``nonlinear=False`` by default, since the geometric
     nonlinearity moves these figures by less than 0.1 % at the default speed.
     """
     rows = []
-    base = _row(steady_state(params, steps_per_period=steps_per_period, nonlinear=nonlinear))
+    base = _row(steady_state(params, steps_per_period=steps_per_period, nonlinear=nonlinear, scheme=scheme))
     rows.append({"assumption": "(defaults)", "alternative": "", **base})
     for v in variants:
-        res = steady_state(v.params(params), steps_per_period=steps_per_period, motors=v.motors, nonlinear=nonlinear)
+        res = steady_state(v.params(params), steps_per_period=steps_per_period, motors=v.motors, nonlinear=nonlinear,
+                           scheme=scheme)
         rows.append({"assumption": v.assumption, "alternative": v.label, **_row(res)})
     df = pd.DataFrame(rows)
     for link in ("L2", "L3"):
@@ -101,17 +106,19 @@ def speed_table(
     speeds_rpm: tuple[float, ...],
     steps_per_period: int = 100,
     nonlinear: bool = False,
+    scheme: Scheme = PAPER_SCHEME,
 ) -> pd.DataFrame:
     """Deflections, peak bending stress and peak drive torques at several crank speeds.
 
     The torques are the rigid-body inverse dynamics (:func:`fivebar.rigid.motor_torques`)
     over one period; the table sets them against motor 1's printed stall torque and the
-    stress against the assumed yield stress.
+    stress against the assumed yield stress.  Steady states as in :func:`assumption_effects`
+    (the paper's S = 100 and rule by default).
     """
     rows = []
     for rpm in speeds_rpm:
         p = params.replace(crank_speed_rpm=rpm)
-        res = steady_state(p, steps_per_period=steps_per_period, nonlinear=nonlinear)
+        res = steady_state(p, steps_per_period=steps_per_period, nonlinear=nonlinear, scheme=scheme)
         tau = np.abs(motor_torques(p, np.linspace(0.0, p.period, 181))).max(axis=0)
         row = {"crank speed (r/min)": rpm, **_row(res)}
         row["stress / yield"] = row["peak bending stress (MPa)"] * 1e6 / p.yield_stress

@@ -20,7 +20,7 @@ from .errors import InputError
 from .kinematics import LINKS, positions
 from .params import Params
 
-__all__ = ["OKABE_ITO", "PALETTE", "LINK_COLORS", "use_book_style", "draw_linkage"]
+__all__ = ["OKABE_ITO", "PALETTE", "LINK_COLORS", "campbell_plot", "use_book_style", "draw_linkage"]
 
 #: The Okabe-Ito colour-blind-safe palette (Okabe & Ito 2008), by name.
 OKABE_ITO: dict[str, str] = {
@@ -205,3 +205,46 @@ def draw_linkage(
         ax.margins(0.1)
     ax.set_aspect("equal")
     return out
+
+
+def campbell_plot(data, ax=None, *, mark: bool = True, effective: bool = True):
+    r"""Draw a Campbell diagram from :func:`fivebar.resonance.campbell_data`.
+
+    ``ax = campbell_plot(campbell_data(params, speeds))``.  Each mode is a band from the lowest
+    to the highest instantaneous frequency over a turn with its mean (3.3) as a line; the load
+    harmonics :math:`k\Omega` (k = 1..m) are straight lines through the origin; ``mark``
+    circles their crossings with each mean (the primary and superharmonic resonance speeds of
+    :func:`fivebar.resonance.resonance_speeds`).  ``effective`` adds the effective frequencies
+    :math:`\sqrt{\bar\omega_r^2 + h_r\Omega^2}` as dashed curves, their crossings as filled
+    dots.  Returns the matplotlib Axes.
+    """
+    import matplotlib.pyplot as plt
+
+    x, lo, mean, hi, h = data.speeds_rpm, data.low, data.mean, data.high, data.spin_softening
+    if ax is None:
+        _, ax = plt.subplots(figsize=(8, 5))
+    xs = np.array([0.0, x.max()])
+    for r in range(len(mean)):
+        c = f"C{r}"
+        ax.axhspan(lo[r], hi[r], color=c, alpha=0.15, lw=0)
+        ax.axhline(mean[r], color=c, lw=1.5, label=f"mode {r + 1}: mean {mean[r]:.1f} Hz, range {lo[r]:.1f}-{hi[r]:.1f} Hz")
+    if effective:
+        xx = np.linspace(0.0, x.max(), 400)
+        fe = data.effective(xx)
+        for r in range(len(mean)):
+            ok = np.isfinite(fe[:, r])
+            ax.plot(xx[ok], fe[ok, r], color=f"C{r}", ls="--", lw=1.2, label=f"mode {r + 1}: effective, h = {h[r]:.2f}")
+    for k in range(1, data.harmonics + 1):
+        ax.plot(xs, k * xs / 60, color="0.4", lw=0.8, ls=":")
+        xe = min(x.max(), hi.max() * 1.15 * 60 / k)
+        ax.annotate(f"{k}Ω", (xe, k * xe / 60), fontsize=7, color="0.3", xytext=(2, 0), textcoords="offset points")
+        if mark:
+            ax.plot(*data.crossings(k), "o", mfc="none", mec="k", ms=6)
+            if effective:
+                ax.plot(*data.crossings(k, effective=True), "o", color="k", ms=4)
+    ax.set_xlim(x.min(), x.max())
+    ax.set_ylim(0, hi.max() * 1.15)
+    ax.set_xlabel("crank speed (r/min)")
+    ax.set_ylabel("frequency (Hz)")
+    ax.legend(fontsize=8, loc="upper left")
+    return ax

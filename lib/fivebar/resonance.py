@@ -39,6 +39,7 @@ of the instantaneous frequencies of the linkage subsystem (without the rotor whi
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass
 from collections.abc import Mapping, Sequence
 from functools import lru_cache
 
@@ -55,6 +56,8 @@ from .params import Params
 
 __all__ = [
     "ResonanceError",
+    "CampbellData",
+    "campbell_data",
     "campbell_diagram",
     "classify",
     "effective_frequencies",
@@ -378,6 +381,76 @@ def resonance_speeds(
     return df.sort_values("speed (r/min)").reset_index(drop=True)
 
 
+@dataclass(frozen=True)
+class CampbellData:
+    """The numbers of a Campbell diagram (:func:`campbell_data`); draw with
+    :func:`fivebar.plotting.campbell_plot`.
+
+    Attributes
+    ----------
+    speeds_rpm
+        Crank speeds spanning the diagram (r/min).
+    frequencies
+        Instantaneous natural frequencies (Hz) over a turn, (samples, n_modes).
+    low, mean, high
+        Their minimum, mean (3.3) and maximum over the turn (Hz), (n_modes,).
+    spin_softening
+        h_r of the effective frequencies sqrt(mean_r^2 + h_r Omega^2), (n_modes,).
+    harmonics
+        m: the load harmonics k Omega, k = 1..m.
+    """
+
+    speeds_rpm: NDArray
+    frequencies: NDArray
+    low: NDArray
+    mean: NDArray
+    high: NDArray
+    spin_softening: NDArray
+    harmonics: int
+
+    def effective(self, speeds_rpm: ArrayLike) -> NDArray:
+        """Effective frequencies (Hz) at the given speeds, (len(speeds), n_modes); NaN where
+        the lowest mode has diverged (sqrt of a negative number)."""
+        W = np.asarray(speeds_rpm, float)[:, None] * 2 * np.pi / 60
+        w2 = (2 * np.pi * self.mean) ** 2 + self.spin_softening * W**2
+        return np.where(w2 > 0, np.sqrt(np.abs(w2)), np.nan) / (2 * np.pi)
+
+    def crossings(self, k: int, effective: bool = False) -> tuple[NDArray, NDArray]:
+        """Speeds (r/min) and frequencies (Hz) where k Omega meets each mean (or effective)
+        frequency, within the speed range: the primary and superharmonic resonances."""
+        x = self.speeds_rpm
+        if effective:
+            xr = self.mean / np.sqrt(k**2 - self.spin_softening) * 60  # k W = sqrt(wbar^2 + h W^2)
+            y = k * xr / 60
+        else:
+            xr = self.mean * 60 / k
+            y = self.mean
+        ok = (xr >= x.min()) & (xr <= x.max())
+        return xr[ok], y[ok]
+
+
+def campbell_data(
+    params: Params,
+    speeds_rpm: ArrayLike,
+    *,
+    n_modes: int = 3,
+    harmonics: int | None = None,
+) -> CampbellData:
+    """Natural frequencies against crank speed, with the lines k Omega: the numbers.
+
+    ``cd = campbell_data(params, speeds)``; ``fivebar.plotting.campbell_plot(cd)`` draws them.
+    The frequencies over a turn come from :func:`linkage_frequencies` (S samples of the
+    parameter file) and do not depend on the speed; ``harmonics`` is m (default
+    ``params.fourier_terms``).
+    """
+    x = np.asarray(speeds_rpm, float)
+    if x.ndim != 1 or x.size < 2 or np.any(x <= 0):
+        raise ResonanceError(f"speeds_rpm must be a 1-D array of positive speeds (r/min), got {speeds_rpm!r}")
+    m = params.fourier_terms if harmonics is None else int(harmonics)
+    f = linkage_frequencies(params, n_modes) / (2 * np.pi)
+    return CampbellData(x, f, f.min(0), f.mean(0), f.max(0), spin_softening(params, n_modes), m)
+
+
 def campbell_diagram(
     params: Params,
     speeds_rpm: ArrayLike,
@@ -388,68 +461,9 @@ def campbell_diagram(
     mark: bool = True,
     effective: bool = True,
 ) -> plt.Axes:
-    r"""Campbell diagram: natural frequencies against crank speed, with the lines k Omega.
+    """Campbell diagram in one call: :func:`campbell_data` drawn by
+    :func:`fivebar.plotting.campbell_plot` (see both).  Returns the matplotlib Axes."""
+    from .plotting import campbell_plot
 
-    Each mode is drawn as a band from the lowest to the highest instantaneous frequency over a
-    turn (they do not depend on the speed) with its mean (3.3) as a line; the load harmonics
-    :math:`k\Omega` (k = 1..m) are straight lines through the origin; ``mark`` circles the
-    crossings of each line with each mean, the primary and superharmonic resonance speeds of
-    :func:`resonance_speeds`.  ``effective`` adds the effective frequencies
-    :math:`\sqrt{\bar\omega_r^2 + h_r\Omega^2}` (:func:`effective_frequencies`) as dashed
-    curves, with their crossings marked by filled dots.
-
-    Parameters
-    ----------
-    params : Params
-    speeds_rpm : array_like
-        Crank speeds (r/min) spanning the x axis.
-    n_modes : int
-    harmonics : int, optional
-        m (default ``params.fourier_terms``).
-    ax : matplotlib Axes, optional
-
-    Returns
-    -------
-    matplotlib Axes
-    """
-    x = np.asarray(speeds_rpm, float)
-    if x.ndim != 1 or x.size < 2 or np.any(x <= 0):
-        raise ResonanceError(f"speeds_rpm must be a 1-D array of positive speeds (r/min), got {speeds_rpm!r}")
-    m = params.fourier_terms if harmonics is None else int(harmonics)
-    if ax is None:
-        _, ax = plt.subplots(figsize=(8, 5))
-    f = linkage_frequencies(params, n_modes) / (2 * np.pi)
-    lo, mean, hi = f.min(0), f.mean(0), f.max(0)
-    xs = np.array([0.0, x.max()])
-    for r in range(n_modes):
-        c = f"C{r}"
-        ax.axhspan(lo[r], hi[r], color=c, alpha=0.15, lw=0)
-        ax.axhline(mean[r], color=c, lw=1.5, label=f"mode {r + 1}: mean {mean[r]:.1f} Hz, range {lo[r]:.1f}-{hi[r]:.1f} Hz")
-    h = spin_softening(params, n_modes)
-    if effective:
-        xx = np.linspace(0.0, x.max(), 400)
-        W = xx * 2 * np.pi / 60
-        for r in range(n_modes):
-            w2 = (2 * np.pi * mean[r]) ** 2 + h[r] * W**2
-            ok = w2 > 0
-            ax.plot(xx[ok], np.sqrt(w2[ok]) / (2 * np.pi), color=f"C{r}", ls="--", lw=1.2,
-                    label=f"mode {r + 1}: effective, h = {h[r]:.2f}")
-    for k in range(1, m + 1):
-        ax.plot(xs, k * xs / 60, color="0.4", lw=0.8, ls=":")
-        xe = min(x.max(), hi.max() * 1.15 * 60 / k)
-        ax.annotate(f"{k}Ω", (xe, k * xe / 60), fontsize=7, color="0.3", xytext=(2, 0), textcoords="offset points")
-        if mark:
-            xr = mean * 60 / k
-            ok = (xr >= x.min()) & (xr <= x.max())
-            ax.plot(xr[ok], mean[ok], "o", mfc="none", mec="k", ms=6)
-            if effective:
-                Wr = 2 * np.pi * mean / np.sqrt(k**2 - h)  # k W = sqrt(wbar^2 + h W^2)
-                xr = Wr * 60 / (2 * np.pi)
-                ok = (xr >= x.min()) & (xr <= x.max())
-                ax.plot(xr[ok], k * xr[ok] / 60, "o", color="k", ms=4)
-    ax.set_xlim(x.min(), x.max())
-    ax.set_ylim(0, hi.max() * 1.15)
-    ax.set_xlabel("crank speed (r/min)")
-    ax.set_ylabel("frequency (Hz)")
-    ax.legend(fontsize=8, loc="upper left")
-    return ax
+    data = campbell_data(params, speeds_rpm, n_modes=n_modes, harmonics=harmonics)
+    return campbell_plot(data, ax=ax, mark=mark, effective=effective)
