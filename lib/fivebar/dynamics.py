@@ -39,9 +39,9 @@ with :math:`\mathbf M, \mathbf K, \boldsymbol\Phi, \omega_r` those of the instan
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from .eigen import frozen_modes
 from .errors import InputError
 from .assembly import Model, build_model
 from .kinematics import crank_laws, rigid_state
@@ -55,20 +55,13 @@ __all__ = ["LinkageDynamics", "modal_damping"]
 def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
     """C = M Phi diag(2 zeta omega) Phi^T M for one frozen configuration (N s/m).
 
-    ``M, K`` of shape ``(n, n)``, or stacks ``(..., n, n)`` of configurations (then the
-    generalised eigenproblems are solved together: Cholesky ``M = L L^T``, the symmetric
-    eigenproblem of ``L^-1 K L^-T = V diag(omega^2) V^T``, and ``M Phi = L V``).
+    ``M, K`` of shape ``(n, n)``, or stacks ``(..., n, n)`` of configurations (solved
+    together); the modes from :func:`fivebar.eigen.frozen_modes`, the library's one
+    eigensolver.
     """
     M, K = np.asarray(M, float), np.asarray(K, float)
-    if M.ndim == 2:
-        w2, Phi = scipy.linalg.eigh(K, M)
-        MPhi = M @ Phi
-    else:
-        L = np.linalg.cholesky(M)
-        X = np.linalg.solve(L, K)  # L^-1 K
-        A = np.linalg.solve(L, np.swapaxes(X, -1, -2))  # L^-1 K L^-T
-        w2, V = np.linalg.eigh(0.5 * (A + np.swapaxes(A, -1, -2)))
-        MPhi = L @ V
+    w2, Phi = frozen_modes(M, K)
+    MPhi = M @ Phi
     MPhi_w = MPhi * (2.0 * zeta * np.sqrt(np.clip(w2, 0.0, None)))[..., None, :]
     return MPhi_w @ np.swapaxes(MPhi, -1, -2)
 

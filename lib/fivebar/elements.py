@@ -42,9 +42,9 @@ import math
 from typing import Literal
 
 import numpy as np
-import scipy.linalg
 from numpy.polynomial import polynomial as P
 
+from .eigen import frozen_modes
 from .errors import InputError
 from .params import Motor
 
@@ -381,10 +381,8 @@ def bending_frequencies(
         )
     # the largest eigenvalues 1/omega^2 of (M, K): accurate to rounding relative to themselves,
     # whereas the smallest of (K, M) carry the rounding error of the stiffest (curvature) modes
-    N = len(keep)
-    mu = scipy.linalg.eigh(M[np.ix_(keep, keep)], K[np.ix_(keep, keep)], eigvals_only=True,
-                           subset_by_index=[N - modes, N - 1])
-    return 1.0 / np.sqrt(mu[::-1])
+    w2, _ = frozen_modes(M[np.ix_(keep, keep)], K[np.ix_(keep, keep)], modes)
+    return np.sqrt(w2)
 
 
 # --- motor element (A.1)-(A.4) ---------------------------------------------------------------

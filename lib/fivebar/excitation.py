@@ -75,9 +75,9 @@ from fractions import Fraction
 
 import numpy as np
 import pandas as pd
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from .eigen import frozen_modes
 from .errors import FivebarError
 from .dynamics import LinkageDynamics
 from .electromagnetics import field_frequencies, supply_frequency_for_speed
@@ -425,10 +425,8 @@ def modal_basis(
     k = int(n_modes)
     omega = np.empty((S, k))
     Phi = np.empty((S, dyn.n, k))
-    for j in range(S):
-        w2, V = scipy.linalg.eigh(sd.K[j], sd.M[j], subset_by_index=(0, k - 1))
-        omega[j] = np.sqrt(np.clip(w2, 0.0, None))
-        Phi[j] = V
+    w2, Phi[:] = frozen_modes(sd.M, sd.K, k)
+    omega[:] = np.sqrt(w2)
     if kind == "instantaneous":
         Phi = _track(Phi, sd.M)
         back = np.einsum("ik,ij,jk->k", Phi[-1], sd.M[0], Phi[0])

@@ -17,9 +17,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from .eigen import frozen_modes
 from .errors import InputError
 from .assembly import Model, build_model
 from .kinematics import crank_laws
@@ -55,12 +55,9 @@ def _eig(M: NDArray, K: NDArray, n: int | None) -> tuple[NDArray, NDArray]:
     # ill-conditioned (eigenvalues from 1e-10 to 1), and the usual K phi = omega^2 M phi
     # then gives the lowest frequencies only to about 1e-8 relative, varying with the BLAS
     # thread count; the inverse problem gives them to round-off.
-    N = M.shape[0]
-    k = N if n is None else min(n, N)
-    mu, V = scipy.linalg.eigh(M, K, subset_by_index=(N - k, N - 1))
-    mu, V = mu[::-1], V[:, ::-1]  # ascending frequency
-    V = V / np.sqrt(mu)  # mass-normalised: V^T M V = I
-    return 1.0 / (2.0 * np.pi * np.sqrt(mu)), V
+    N = M.shape[-1]
+    w2, V = frozen_modes(M, K, N if n is None else min(n, N))
+    return np.sqrt(w2) / (2.0 * np.pi), V
 
 
 def _model(params: Params, motors: bool, elements_per_link, model: Model | None) -> Model:
@@ -127,7 +124,7 @@ def frequencies_along_cycle(
     th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed)
     m = build_model(params, elements_per_link=elements_per_link, motors=motors)
     M, K = m.matrices(th1, th4)
-    return np.array([_eig(Mi, Ki, n)[0] for Mi, Ki in zip(M, K)])
+    return _eig(M, K, n)[0]
 
 
 def mean_frequencies(
