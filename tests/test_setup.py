@@ -119,3 +119,16 @@ def test_the_default_scheme_is_defined_once():
             continue
         src = path.read_text()
         assert not re.search(r"GeneralizedAlpha\(|Newmark\(\)", src), path.name
+
+
+def test_generic_solvers_import_nothing_of_the_linkage():
+    import ast
+
+    for name in ("newmark.py", "multiscale.py", "eigen.py", "errors.py"):
+        tree = ast.parse((LIB / name).read_text())
+        top = [n for n in tree.body if isinstance(n, (ast.Import, ast.ImportFrom))]
+        local = {n.module for n in top if isinstance(n, ast.ImportFrom) and n.level == 1}
+        assert local <= {"errors", "newmark"}, (name, local)
+    from fivebar.multiscale import compare_starts  # the old import path still works
+
+    assert compare_starts.__module__ == "fivebar.linkage_multiscale"

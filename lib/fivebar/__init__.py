@@ -15,7 +15,7 @@ from .elements import beam_element, motor_element
 from .kinematics import GeometryError, positions
 from .excitation import excitation_frequencies, load_expansion
 from .modal import natural_frequencies
-from .multiscale import MultipleScalesResponse, multiple_scales, multiple_scales_newmark
+from .linkage_multiscale import MultipleScalesResponse, multiple_scales, multiple_scales_newmark
 from .newmark import GeneralizedAlpha, HHT, Newmark, NewtonConvergenceError, UnstableParametersError, integrate
 from .params import DEFAULT_PARAMS_PATH, Motor, ParameterError, Params, load_params
 from .resonance import campbell_diagram, resonance_table

@@ -58,7 +58,7 @@ offers two readings of (3.1):
   (3.2); they are of relative size :math:`\Omega/\omega_r` and
   :math:`(\Omega/\omega_r)^2`.  The second shifts the resonances at higher speeds: for a mode
   whose shape turns with the cranks it is :math:`-\Omega^2` (spin softening), and
-  :func:`fivebar.multiscale.modal_model` can keep it;
+  :func:`fivebar.linkage_multiscale.modal_model` can keep it;
 * ``"reference"``: the modes of one configuration (crank angle 0 by default), constant, with
   :math:`f_r(t) = \boldsymbol\phi_r^\top\mathbf F(t)`, whose Fourier coefficients are the
   complex sums :math:`\sum_i\phi_{ir}F_{fki}e^{i\tau_{fki}}` (errata E22).
