@@ -132,3 +132,15 @@ def test_generic_solvers_import_nothing_of_the_linkage():
     from fivebar.multiscale import compare_starts  # the old import path still works
 
     assert compare_starts.__module__ == "fivebar.linkage_multiscale"
+
+
+def test_analyses_take_a_setup_or_params_alike():
+    from fivebar.resonance import resonance_table
+    from fivebar.sweep import speed_sweep
+
+    a = resonance_table(P, 300.0)
+    b = resonance_table(Setup(P, crank_speed_rpm=300.0))
+    assert a.equals(b)
+    s1 = speed_sweep(P, [60.0], steps_per_period=100, progress=False, cache=False)
+    s2 = speed_sweep(Setup(P, steps_per_period=100, nonlinear=False), [60.0], progress=False, cache=False)
+    assert np.allclose(s1.to_numpy(), s2.to_numpy(), rtol=1e-12)

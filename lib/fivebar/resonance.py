@@ -53,6 +53,7 @@ from .errors import FivebarError
 from .dynamics import LinkageDynamics
 from .excitation import excitation_frequencies
 from .params import Params
+from .setup import Setup
 
 __all__ = [
     "ResonanceError",
@@ -275,8 +276,17 @@ def _linkage_excitations(params: Params, crank_speed_rpm: float | None, include_
     return out
 
 
+def _as_params(setup, crank_speed_rpm: float | None = None) -> Params:
+    """The parameters of a Setup or Params at its crank speed, with its S (steps_per_period)."""
+    from .setup import as_setup
+
+    st = as_setup(setup, crank_speed_rpm=crank_speed_rpm)
+    p = st.run_params
+    return p if p.steps_per_period == st.steps_per_period else p.replace(steps_per_period=st.steps_per_period)
+
+
 def resonance_table(
-    params: Params,
+    params: Params | Setup,
     crank_speed_rpm: float | None = None,
     *,
     n_modes: int = 4,
@@ -295,9 +305,10 @@ def resonance_table(
     e.g. "nu1=nu2=nu3"); ``include_motors`` adds the motors' field frequencies (which drive only
     the decoupled rotors).  ``harmonics`` defaults to ``params.fourier_terms``.
     ``frequencies="effective"`` uses :func:`effective_frequencies` (spin softening) instead of
-    the paper's means.  Other keyword arguments go to :func:`classify`.
+    the paper's means.  Other keyword arguments go to :func:`classify`.  ``params`` may be a
+    :class:`fivebar.Setup` (its crank speed and S are used).
     """
-    p = params if crank_speed_rpm is None else params.replace(crank_speed_rpm=crank_speed_rpm)
+    p = _as_params(params, crank_speed_rpm)
     if frequencies == "mean":
         w = linkage_frequencies(p, n_modes).mean(axis=0)
     elif frequencies == "effective":
@@ -430,7 +441,7 @@ class CampbellData:
 
 
 def campbell_data(
-    params: Params,
+    params: Params | Setup,
     speeds_rpm: ArrayLike,
     *,
     n_modes: int = 3,
@@ -441,8 +452,9 @@ def campbell_data(
     ``cd = campbell_data(params, speeds)``; ``fivebar.plotting.campbell_plot(cd)`` draws them.
     The frequencies over a turn come from :func:`linkage_frequencies` (S samples of the
     parameter file) and do not depend on the speed; ``harmonics`` is m (default
-    ``params.fourier_terms``).
+    ``params.fourier_terms``).  ``params`` may be a :class:`fivebar.Setup` (its S is used).
     """
+    params = _as_params(params)
     x = np.asarray(speeds_rpm, float)
     if x.ndim != 1 or x.size < 2 or np.any(x <= 0):
         raise ResonanceError(f"speeds_rpm must be a 1-D array of positive speeds (r/min), got {speeds_rpm!r}")
