@@ -1003,7 +1003,7 @@ def simulate_cycle(
     Parameters
     ----------
     params
-        Parameter set, or a :class:`fivebar.Setup` (its crank speed, S and scheme are the
+        Parameter set, or a :class:`fivebar.setup.Setup` (its crank speed, S and scheme are the
         defaults of the keywords below; motors, nonlinearity and mesh do not apply here).
     servo
         The PD servo (it acts on the deviation of the measured angle from the crank laws).

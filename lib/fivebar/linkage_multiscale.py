@@ -7,7 +7,7 @@ and parametric terms of :class:`fivebar.dynamics.LinkageDynamics` from
 approximation as a :class:`fivebar.steady.SteadyState`; :func:`multiple_scales_newmark` is the
 paper's method (section 4): the first approximation at t = 0 as the initial state of the
 implicit scheme, marched to the steady state; :func:`compare_starts` measures its benefit.
-Every function takes a :class:`fivebar.Setup` or a Params.
+Every function takes a :class:`fivebar.setup.Setup` or a Params.
 """
 
 from __future__ import annotations
@@ -354,7 +354,7 @@ def multiple_scales(
     Parameters
     ----------
     params : Params or Setup
-        The set-up (:class:`fivebar.Setup`; a Params takes the parameter file's settings).
+        The set-up (:class:`fivebar.setup.Setup`; a Params takes the parameter file's settings).
         Ignored when ``dynamics`` is given.
     crank_speed_rpm : float, optional
         Speed of both cranks (r/min).
@@ -465,7 +465,7 @@ def multiple_scales_newmark(
     The first approximation at :math:`t = 0` (:func:`multiple_scales`, ``**kwargs`` passed on)
     is the initial state; the implicit scheme marches period after period
     (:func:`fivebar.steady.march`) until the state repeats to ``tol`` (relative change over one
-    period in the energy norm).  ``params`` is a :class:`fivebar.Setup` or a Params; the
+    period in the energy norm).  ``params`` is a :class:`fivebar.setup.Setup` or a Params; the
     scheme and S default to the set-up's (the parameter file's generalised-alpha: the paper's
     average-acceleration rule at S = 100 has an unstable discrete periodic orbit for this
     model, errata E26, so marching with it diverges).

@@ -22,7 +22,7 @@ from .errors import FivebarError
 __all__ = ["Motor", "Params", "ParameterError", "load_params", "DEFAULT_PARAMS_PATH"]
 
 #: The parameter file shipped with the package (``fivebar/data/wang2011.toml``, package data
-#: read through :mod:`importlib.resources`; ``data/wang2011.toml`` of the repository links to it).
+#: read through ``importlib.resources``; ``data/wang2011.toml`` of the repository links to it).
 DEFAULT_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "wang2011.toml"))
 
 

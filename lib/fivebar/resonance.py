@@ -306,7 +306,7 @@ def resonance_table(
     the decoupled rotors).  ``harmonics`` defaults to ``params.fourier_terms``.
     ``frequencies="effective"`` uses :func:`effective_frequencies` (spin softening) instead of
     the paper's means.  Other keyword arguments go to :func:`classify`.  ``params`` may be a
-    :class:`fivebar.Setup` (its crank speed and S are used).
+    :class:`fivebar.setup.Setup` (its crank speed and S are used).
     """
     p = _as_params(params, crank_speed_rpm)
     if frequencies == "mean":
@@ -452,7 +452,7 @@ def campbell_data(
     ``cd = campbell_data(params, speeds)``; ``fivebar.plotting.campbell_plot(cd)`` draws them.
     The frequencies over a turn come from :func:`linkage_frequencies` (S samples of the
     parameter file) and do not depend on the speed; ``harmonics`` is m (default
-    ``params.fourier_terms``).  ``params`` may be a :class:`fivebar.Setup` (its S is used).
+    ``params.fourier_terms``).  ``params`` may be a :class:`fivebar.setup.Setup` (its S is used).
     """
     params = _as_params(params)
     x = np.asarray(speeds_rpm, float)

@@ -1,6 +1,6 @@
 """One linkage set-up: parameters, crank speed, S, motors, nonlinearity, mesh and scheme.
 
-Every analysis of the linkage (:func:`fivebar.steady_state`, :func:`fivebar.speed_sweep`,
+Every analysis of the linkage (:func:`fivebar.steady.steady_state`, :func:`fivebar.sweep.speed_sweep`,
 the resonance tables, the multiple-scales start, the control simulation) takes a
 :class:`Setup` or a :class:`~fivebar.params.Params`; :func:`as_setup` turns the second into
 the first, so each default lives once: a field left ``None`` takes the parameter file's entry
@@ -66,7 +66,7 @@ class Setup:
     Attributes
     ----------
     params
-        The parameter set (:func:`fivebar.load_params`).
+        The parameter set (:func:`fivebar.params.load_params`).
     crank_speed_rpm
         Speed of both cranks (r/min); default ``params.crank_speed_rpm``.
     steps_per_period

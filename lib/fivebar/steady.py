@@ -23,8 +23,8 @@ even number of steps their multiplier approaches :math:`+1` and :math:`\mathbf I
 Newton step is therefore solved in the least-squares sense, and damped: a step that does not
 reduce the periodicity residual is halved.  Worse, at S = 100 the paper's rule has an unstable
 discrete orbit (errata E26), so the default scheme is the parameter file's dissipative
-generalised-alpha method at S = 800 (:class:`fivebar.Setup`); the paper's rule is
-:data:`fivebar.PAPER_SCHEME`.  Errors and unstable results name the scheme and the remedy.
+generalised-alpha method at S = 800 (:class:`fivebar.setup.Setup`); the paper's rule is
+:data:`fivebar.setup.PAPER_SCHEME`.  Errors and unstable results name the scheme and the remedy.
 """
 
 from __future__ import annotations
@@ -238,8 +238,8 @@ def march(
 ) -> SteadyState:
     """March period by period until the state repeats to ``tol`` (relative, energy norm).
 
-    ``dyn`` is a :class:`~fivebar.dynamics.LinkageDynamics`, a :class:`fivebar.Setup` or a
-    :class:`fivebar.Params`; ``scheme`` defaults to the set-up's (the parameter file's).
+    ``dyn`` is a :class:`~fivebar.dynamics.LinkageDynamics`, a :class:`fivebar.setup.Setup` or a
+    :class:`fivebar.params.Params`; ``scheme`` defaults to the set-up's (the parameter file's).
     ``u0, v0`` default to rest (zeros).  Raises :class:`SteadyStateError` after
     ``max_periods`` periods, naming the last relative change, and a
     :class:`~fivebar.newmark.NewtonConvergenceError` naming the scheme and the remedy if a
@@ -279,8 +279,8 @@ def shooting(
 ) -> SteadyState:
     """Damped Newton's method on the periodicity condition, with the Newmark monodromy matrix.
 
-    ``dyn`` is a :class:`~fivebar.dynamics.LinkageDynamics`, a :class:`fivebar.Setup` or a
-    :class:`fivebar.Params`; ``scheme`` defaults to the set-up's (the parameter file's).
+    ``dyn`` is a :class:`~fivebar.dynamics.LinkageDynamics`, a :class:`fivebar.setup.Setup` or a
+    :class:`fivebar.params.Params`; ``scheme`` defaults to the set-up's (the parameter file's).
     ``u0, v0`` default to the quasi-static state at t = 0.  Converged when the relative
     periodicity residual (energy norm) is below ``tol``.  A Newton step that does not reduce
     the residual (or whose period fails to integrate) is halved, up to 10 times.  The returned
@@ -391,13 +391,13 @@ def steady_state(
     Parameters
     ----------
     setup
-        A :class:`fivebar.Setup`, or a :class:`fivebar.Params` (all other settings from the
+        A :class:`fivebar.setup.Setup`, or a :class:`fivebar.params.Params` (all other settings from the
         parameter file: S = ``steps_per_period``, the ``[simulation] scheme``).
     method
         "shooting" (damped Newton on periodicity, with Floquet multipliers) or "march" (period
         by period from rest).
     steps_per_period, crank_speed_rpm, motors, nonlinear, scheme, elements_per_link
-        Override the set-up's fields (``None`` keeps them): see :class:`fivebar.Setup`.  The
+        Override the set-up's fields (``None`` keeps them): see :class:`fivebar.setup.Setup`.  The
         paper's rule is ``scheme=fivebar.PAPER_SCHEME``.
     """
     if method not in ("shooting", "march"):

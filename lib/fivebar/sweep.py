@@ -13,7 +13,7 @@ peak-to-peak of :math:`\mathbf K(t)^{-1}\mathbf F(t)`, itself exactly proportion
 :math:`\Omega^2`): it is 1 at low speed and peaks at the resonances that
 :mod:`fivebar.resonance` predicts.
 
-The integrator and S are the set-up's (:class:`fivebar.Setup`: the parameter file's
+The integrator and S are the set-up's (:class:`fivebar.setup.Setup`: the parameter file's
 generalised-alpha scheme, errata E26: the paper's average-acceleration rule at S = 100 has an
 unstable discrete periodic orbit for this model).  A sweep over many speeds may pass a smaller
 ``steps_per_period`` to save time (S = 100 is within about 1 % up to 400 r/min).  The
@@ -133,7 +133,7 @@ def speed_sweep(
     scheme : Scheme, optional
         Default the set-up's (the parameter file's generalised-alpha, see the module docstring).
     nonlinear, motors : bool, optional
-        As :class:`fivebar.Setup`; ``None`` keeps a Setup's fields, and for a Params means
+        As :class:`fivebar.setup.Setup`; ``None`` keeps a Setup's fields, and for a Params means
         linear (the sweep's default), with the motors.
     executor : concurrent.futures.Executor, optional
         Runs the speeds in parallel (``submit``); None runs them here, one after the other.
