@@ -42,8 +42,8 @@ import itertools
 from dataclasses import dataclass
 from collections.abc import Mapping, Sequence
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
-import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import scipy.optimize
@@ -54,6 +54,9 @@ from .dynamics import LinkageDynamics
 from .excitation import excitation_frequencies
 from .params import Params
 from .setup import Setup
+
+if TYPE_CHECKING:  # drawing lives in fivebar.plotting; only the wrapper's annotations name it
+    import matplotlib.pyplot as plt
 
 __all__ = [
     "ResonanceError",
