@@ -170,9 +170,9 @@ def build(
         L_el = float(np.linalg.norm(P[b] - P[a])) / n_el
         for i in range(n_el):
             bodies.append(mbs.AddObject(ii.ObjectANCFCable2D(
-                nodeNumbers=[nn[i], nn[i + 1]], physicsLength=L_el, physicsMassPerLength=rhoA,
-                physicsBendingStiffness=EI, physicsAxialStiffness=EA,
-                physicsBendingDamping=beta * EI, physicsAxialDamping=beta * EA,
+                nodeNumbers=[nn[i], nn[i + 1]], length=L_el, massPerLength=rhoA,
+                bendingStiffness=EI, axialStiffness=EA,
+                bendingDamping=beta * EI, axialDamping=beta * EA,
                 useReducedOrderIntegration=0)))
 
     def tie(n0: int, c0: int, n1: int | None, c1: int = 0) -> None:
@@ -466,16 +466,17 @@ def multibody_steady_state(
     ti.verboseMode = 0
     ti.adaptiveStep = False
     ss.solution.file.write = False
-    ss.displayStatistics = False
-    ss.displayComputationTime = False
-    ss.linearSolverType = exu.LinearSolverType.EXUdense
-    exu.SetWriteToConsole(False)  # Exudyn warns about the Python user functions' allocations
+    ss.show.statistics = False
+    ss.show.computationTime = False
+    ss.linearSolver.solverType = exu.LinearSolverType.EXUdense
+    console = exu.config.printToConsole
+    exu.config.printToConsole = False  # Exudyn warns about the Python user functions' allocations
     try:
         mbs.SolveDynamic(ss)
     except Exception as err:  # Exudyn raises its own error types
         raise MultibodyError(f"Exudyn's dynamic solver failed at t = {mbs.systemData.GetTime():.6g} s: {err}") from err
     finally:
-        exu.SetWriteToConsole(True)
+        exu.config.printToConsole = console
     seconds = time.perf_counter() - t0
     if state["error"] > tol:
         raise MultibodyError(
