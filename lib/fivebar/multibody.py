@@ -2,7 +2,7 @@ r"""An independent, fully coupled flexible multibody model of the linkage (Exudy
 
 The kineto-elastodynamic (KED) model of the paper, (2.7), prescribes the rigid motion and lets
 the links vibrate about it.  Here the same linkage is built as a flexible multibody system in
-Exudyn :cite:`gerstmayr2023exudyn`, which solves the coupled equations of motion
+Exudyn (J. Gerstmayr, Multibody System Dynamics 60, 2024, 533-561), which solves the coupled equations of motion
 
 .. math::
 
@@ -15,7 +15,8 @@ in absolute coordinates: no split into rigid and elastic motion, so the terms KE
 deflection) are all present.
 
 * Links: planar ANCF cable elements (``ObjectANCFCable2D``, Euler-Bernoulli, cubic in position,
-  exact axial strain and curvature :cite:`gerstmayr2008ancf`), axial stiffness ``E A``,
+  exact axial strain and curvature; J. Gerstmayr and H. Irschik, Journal of Sound and
+  Vibration 318, 2008, 461-487), axial stiffness ``E A``,
   bending stiffness ``E I`` with the in-plane depth ``params.bending_depth``, mass per length
   ``rho A`` (no rotary inertia: the library's ``rotary_inertia`` term has no counterpart).
 * Pins B, C, D: the position coordinates of the two link ends are tied, slopes free.
