@@ -45,7 +45,9 @@ def test_damping_matches_modal_ratio_on_lowest_mode(params):
     assert zeta[1] == pytest.approx(params.damping_ratio * f[1] / f[0], rel=1e-2)
 
 
-def test_slow_steady_state_matches_ked(params):
+@pytest.mark.parametrize("gravity", [0.0, 9.81])
+def test_slow_steady_state_matches_ked(params, gravity):
+    params = params.replace(gravity=gravity)
     mb = fivebar.multibody_steady_state(params, 60.0, steps_per_period=200, elements_per_link=MESH)
     ked = fivebar.steady_state(params, crank_speed_rpm=60.0, motors=False, nonlinear=False,
                                elements_per_link=MESH, scheme=fivebar.GeneralizedAlpha(0.8))
