@@ -48,6 +48,8 @@ __all__ = [
     "load_expansion",
     "load_params",
     "motor_element",
+    "multibody_frequencies",
+    "multibody_steady_state",
     "multiple_scales",
     "multiple_scales_newmark",
     "natural_frequencies",
@@ -57,3 +59,23 @@ __all__ = [
     "steady_state",
 ]
 __version__ = "0.1.0"
+
+
+def multibody_steady_state(params, crank_speed_rpm=None, **kwargs):
+    """Periodic steady state of the fully coupled multibody model (Exudyn).
+
+    See :func:`fivebar.multibody.multibody_steady_state`; Exudyn is imported on first use.
+    """
+    from .multibody import multibody_steady_state as f
+
+    return f(params, crank_speed_rpm, **kwargs)
+
+
+def multibody_frequencies(params, theta1, theta4, n=6, **kwargs):
+    """Frozen natural frequencies (Hz) of the multibody model, crank roots clamped.
+
+    See :func:`fivebar.multibody.multibody_frequencies`; Exudyn is imported on first use.
+    """
+    from .multibody import multibody_frequencies as f
+
+    return f(params, theta1, theta4, n, **kwargs)

@@ -1,0 +1,499 @@
+r"""An independent, fully coupled flexible multibody model of the linkage (Exudyn).
+
+The kineto-elastodynamic (KED) model of the paper, (2.7), prescribes the rigid motion and lets
+the links vibrate about it.  Here the same linkage is built as a flexible multibody system in
+Exudyn (J. Gerstmayr, Multibody System Dynamics 60, 2024, 533-561), which solves the coupled equations of motion
+
+.. math::
+
+    \mathbf M(\mathbf q)\ddot{\mathbf q} + \mathbf f(\mathbf q, \dot{\mathbf q}) +
+    \mathbf C_{\mathbf q}^\top\boldsymbol\lambda = \mathbf 0 ,\qquad
+    \mathbf c(\mathbf q, t) = \mathbf 0
+
+in absolute coordinates: no split into rigid and elastic motion, so the terms KED drops
+(elastic Coriolis and centripetal terms, centrifugal stiffening, the change of geometry with
+deflection) are all present.
+
+* Links: planar ANCF cable elements (``ObjectANCFCable2D``, Euler-Bernoulli, cubic in position,
+  exact axial strain and curvature; J. Gerstmayr and H. Irschik, Journal of Sound and
+  Vibration 318, 2008, 461-487), axial stiffness ``E A``,
+  bending stiffness ``E I`` with the in-plane depth ``params.bending_depth``, mass per length
+  ``rho A`` (no rotary inertia: the library's ``rotary_inertia`` term has no counterpart).
+* Pins B, C, D: the position coordinates of the two link ends are tied, slopes free.
+* Lumped masses ``m01`` at B and ``m02`` at C (``ObjectGenericODE2`` mass matrices on the
+  position coordinates of the pin node).
+* Crank roots A and E: position fixed, and the slope vector of the root node kept along the
+  prescribed crank angle, :math:`-\sin\theta\,r'_x + \cos\theta\,r'_y = 0` (a clamped cross
+  section turned by the motor, a user-function constraint).  The crank speed ramps up over
+  ``ramp_periods`` periods with a quintic smooth step and stays constant after, so that the
+  crank angle is :math:`\theta_0 + \Omega (t - T_r/2)` after the ramp (an even number of ramp
+  periods puts crank angle 0 at whole periods).
+* Damping: Kelvin-Voigt material damping, bending moment :math:`EI(\kappa + \beta\dot\kappa)`
+  and axial force :math:`EA(\varepsilon + \beta\dot\varepsilon)`.  Being stiffness
+  proportional it damps no rigid motion and gives mode :math:`k` the ratio
+  :math:`\zeta_k = \beta\omega_k/2`; :math:`\beta = 2\zeta/\omega_1` matches the library's
+  modal damping ratio :math:`\zeta` on the lowest mode of the frozen linkage at crank angle 0
+  (higher modes are damped more, :math:`\zeta\omega_k/\omega_1`).
+* Gravity ``params.gravity`` along -y when it is not zero.
+
+Midpoint deflections are measured as in :meth:`fivebar.steady.SteadyState.midpoint`: the
+displacement of the link's midpoint from its rigid-body position (the kinematics at the same
+crank angles), projected on the rigid link's normal ("transverse") or axis ("longitudinal");
+"chord" subtracts the mean transverse displacement of the two ends.
+
+Exudyn is imported inside the functions: ``import fivebar`` does not need it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .kinematics import LINKS, link_angles, positions
+from .params import Params
+
+__all__ = [
+    "MultibodyError",
+    "MultibodyModel",
+    "MultibodySteadyState",
+    "build",
+    "frozen_system",
+    "multibody_frequencies",
+    "multibody_steady_state",
+]
+
+_DIRECTIONS = ("transverse", "longitudinal", "chord")
+#: default mesh: elements per link L1..L4 (couplers even, so a node sits at the midpoint)
+DEFAULT_ELEMENTS = (2, 4, 4, 2)
+
+
+class MultibodyError(RuntimeError):
+    """The multibody model could not be built or did not reach a periodic steady state."""
+
+
+def _exudyn():
+    try:
+        import exudyn
+        import exudyn.itemInterface  # noqa: F401
+        import exudyn.solver  # noqa: F401
+    except ImportError as err:  # pragma: no cover - exercised only without exudyn
+        raise MultibodyError(
+            "the multibody model needs the package exudyn (pip install exudyn==1.13.6, "
+            "pinned in requirements-lock.txt)"
+        ) from err
+    return exudyn
+
+
+def _check_mesh(elements_per_link) -> tuple[int, int, int, int]:
+    epl = tuple(int(n) for n in elements_per_link)
+    if len(epl) != 4 or any(n < 1 for n in epl) or epl[1] % 2 or epl[2] % 2:
+        raise ValueError(
+            f"elements_per_link = {elements_per_link!r} is not allowed: give four positive "
+            "integers (L1..L4) with even numbers for the couplers L2 and L3"
+        )
+    return epl  # type: ignore[return-value]
+
+
+def _smooth_angle(t: float, W: float, Tr: float) -> tuple[float, float, float]:
+    """Crank angle offset, speed, acceleration for the quintic speed ramp over Tr."""
+    if Tr <= 0 or t >= Tr:
+        return W * (t - 0.5 * Tr), W, 0.0
+    if t <= 0:
+        return 0.0, 0.0, 0.0
+    x = t / Tr
+    G = 2.5 * x**4 - 3 * x**5 + x**6  # integral of the smooth step 10x^3 - 15x^4 + 6x^5
+    s = 10 * x**3 - 15 * x**4 + 6 * x**5
+    ds = (30 * x**2 - 60 * x**3 + 30 * x**4) / Tr
+    return W * Tr * G, W * s, W * ds
+
+
+@dataclass
+class MultibodyModel:
+    """An assembled Exudyn system of the linkage and the bookkeeping to read it."""
+
+    params: Params
+    elements_per_link: tuple[int, int, int, int]
+    SC: object = field(repr=False)
+    mbs: object = field(repr=False)
+    #: per link, the Exudyn node numbers along the link's kinematic direction (LINKS)
+    nodes: dict[str, list[int]] = field(repr=False)
+    #: per link, the ODE2 coordinate indices (x, y) of each node along the link
+    coords: dict[str, NDArray] = field(repr=False)
+    #: reference positions (m) of the nodes, per link, (nodes, 2)
+    reference: dict[str, NDArray] = field(repr=False)
+    beta: float = 0.0
+    theta1: float = 0.0
+    theta4: float = 0.0
+
+
+def build(
+    params: Params,
+    theta1: float | None = None,
+    theta4: float | None = None,
+    elements_per_link=DEFAULT_ELEMENTS,
+    beta: float = 0.0,
+    crank_speed: float = 0.0,
+    ramp: float = 0.0,
+) -> MultibodyModel:
+    """Build the Exudyn model in the configuration of crank angles ``theta1, theta4`` (rad).
+
+    ``theta1, theta4`` default to ``params.theta1_0, params.theta4_0``.  The root slopes
+    follow ``theta + offset(t)`` with the ramped crank law of speed ``crank_speed`` (rad/s;
+    0: frozen) and ramp time ``ramp`` (s).  ``beta`` is the Kelvin-Voigt damping time (s).
+    """
+    exu = _exudyn()
+    ii = exu.itemInterface
+    epl = _check_mesh(elements_per_link)
+    th1 = params.theta1_0 if theta1 is None else float(theta1)
+    th4 = params.theta4_0 if theta4 is None else float(theta4)
+    P = positions(params, th1, th4)
+    ang = link_angles(params, th1, th4)
+    EA, EI, rhoA = params.E * params.A, params.E * params.I, params.rho * params.A
+
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    ground = mbs.AddNode(ii.NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
+    mground = mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
+    mground_all = mbs.AddMarker(ii.MarkerNodeCoordinates(nodeNumber=ground))
+    nodes: dict[str, list[int]] = {}
+    reference: dict[str, NDArray] = {}
+    bodies = []
+    for k, (link, (a, b)) in enumerate(LINKS.items()):
+        n_el = epl[k]
+        e = np.array([np.cos(ang[link]), np.sin(ang[link])])
+        pts = P[a] + np.linspace(0.0, 1.0, n_el + 1)[:, None] * (P[b] - P[a])
+        reference[link] = pts
+        nn = [mbs.AddNode(ii.NodePoint2DSlope1(referenceCoordinates=[*p, *e])) for p in pts]
+        nodes[link] = nn
+        L_el = float(np.linalg.norm(P[b] - P[a])) / n_el
+        for i in range(n_el):
+            bodies.append(mbs.AddObject(ii.ObjectANCFCable2D(
+                nodeNumbers=[nn[i], nn[i + 1]], length=L_el, massPerLength=rhoA,
+                bendingStiffness=EI, axialStiffness=EA,
+                bendingDamping=beta * EI, axialDamping=beta * EA,
+                useReducedOrderIntegration=0)))
+
+    def tie(n0: int, c0: int, n1: int | None, c1: int = 0) -> None:
+        m0 = mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=n0, coordinate=c0))
+        m1 = mground if n1 is None else mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=n1, coordinate=c1))
+        mbs.AddObject(ii.CoordinateConstraint(markerNumbers=[m1, m0]))
+
+    # crank roots: A is the first node of L1, E the first node of L4 (E -> D); pins B, C, D
+    for root in (nodes["L1"][0], nodes["L4"][0]):
+        tie(root, 0, None)
+        tie(root, 1, None)
+    for (la, ia), (lb, ib) in ((("L1", -1), ("L2", 0)), (("L2", -1), ("L3", 0)), (("L3", -1), ("L4", -1))):
+        for c in (0, 1):
+            tie(nodes[la][ia], c, nodes[lb][ib], c)
+
+    # clamped, driven root cross-sections: slope vector along theta(t)
+    W1, W4 = crank_speed, params.speed_ratio * crank_speed
+    for root, th0, W in ((nodes["L1"][0], th1, W1), (nodes["L4"][0], th4, W4)):
+        mk = mbs.AddMarker(ii.MarkerNodeCoordinates(nodeNumber=root))
+
+        def constraint(mbs_, t, item, q, q_t, velocityLevel, th0=th0, W=W):
+            off, w, _ = _smooth_angle(t, W, ramp)
+            th = th0 + off
+            s, c = np.sin(th), np.cos(th)
+            sx, sy = q[2], q[3]  # MarkerNodeCoordinates of this node: reference included
+            if velocityLevel:
+                return [-s * q_t[2] + c * q_t[3] - w * (c * sx + s * sy)]
+            return [-s * sx + c * sy]
+
+        def jacobian(mbs_, t, item, q, q_t, velocityLevel, th0=th0, W=W):
+            th = th0 + _smooth_angle(t, W, ramp)[0]
+            J = np.zeros((1, 4))
+            J[0, 2], J[0, 3] = -np.sin(th), np.cos(th)
+            return J
+
+        mbs.AddObject(ii.ObjectConnectorCoordinateVector(
+            markerNumbers=[mground_all, mk], scalingMarker0=np.zeros((1, 1)),
+            constraintUserFunction=constraint, jacobianUserFunction=jacobian))
+
+    # lumped masses at B (end of L1) and C (end of L2)
+    for link, m in (("L1", params.m01), ("L2", params.m02)):
+        mbs.AddObject(ii.ObjectGenericODE2(nodeNumbers=[nodes[link][-1]],
+                                           massMatrix=np.diag([m, m, 0.0, 0.0]),
+                                           stiffnessMatrix=np.zeros((4, 4))))
+    if params.gravity:
+        g = params.gravity
+        for b in bodies:
+            mm = mbs.AddMarker(ii.MarkerBodyMass(bodyNumber=b))
+            mbs.AddLoad(ii.LoadMassProportional(markerNumber=mm, loadVector=[0.0, -g, 0.0]))
+        for link, m in (("L1", params.m01), ("L2", params.m02)):
+            mp = mbs.AddMarker(ii.MarkerNodePosition(nodeNumber=nodes[link][-1]))
+            mbs.AddLoad(ii.LoadForceVector(markerNumber=mp, loadVector=[0.0, -m * g, 0.0]))
+    mbs.Assemble()
+    coords = {link: np.array([list(mbs.systemData.GetNodeLTGODE2(n))[:2] for n in nn])
+              for link, nn in nodes.items()}
+    return MultibodyModel(params, epl, SC, mbs, nodes, coords, reference, beta, th1, th4)
+
+
+def frozen_system(
+    params: Params, theta1: float, theta4: float, elements_per_link=DEFAULT_ELEMENTS, beta: float = 0.0
+) -> tuple[NDArray, NDArray, NDArray]:
+    """Mass, stiffness and damping matrices of the frozen linkage, in the constraints' null space.
+
+    ``M, K, D = frozen_system(params, theta1, theta4)`` (SI): the Exudyn system linearised at
+    the undeformed configuration of the crank angles (rad), roots clamped.
+    """
+    exu = _exudyn()
+    model = build(params, theta1, theta4, elements_per_link, beta=beta)
+    M, K, D = exu.solver.ComputeLinearizedSystem(model.mbs, exu.SimulationSettings(),
+                                                 projectIntoConstraintNullspace=True)[:3]
+    return np.asarray(M), np.asarray(K), np.asarray(D)
+
+
+def multibody_frequencies(
+    params: Params, theta1: float, theta4: float, n: int = 6, elements_per_link=DEFAULT_ELEMENTS
+) -> NDArray:
+    """The ``n`` lowest natural frequencies (Hz) of the frozen linkage, crank roots clamped.
+
+    ``f = multibody_frequencies(params, theta1, theta4)``: Exudyn's linearisation at the
+    undeformed configuration of the crank angles ``theta1, theta4`` (rad), projected on the
+    null space of the constraints.  Compare with
+    ``fivebar.natural_frequencies(params, theta1, theta4, n, motors=False)``.
+    """
+    import scipy.linalg
+
+    if isinstance(n, bool) or int(n) != n or n < 1:
+        raise ValueError(f"n = {n!r} is not allowed: give a positive integer number of modes")
+    M, K, _ = frozen_system(params, theta1, theta4, elements_per_link)
+    w2 = scipy.linalg.eigh(K, M, eigvals_only=True)
+    if len(w2) < n:
+        raise ValueError(f"n = {n!r} is not allowed: the model has {len(w2)} modes")
+    return np.sqrt(np.clip(w2[: int(n)], 0.0, None)) / (2 * np.pi)
+
+
+def damping_ratios(
+    params: Params, theta1: float, theta4: float, beta: float, n: int = 6, elements_per_link=DEFAULT_ELEMENTS
+) -> tuple[NDArray, NDArray]:
+    """Frequencies (Hz) and damping ratios of the ``n`` lowest modes of the damped frozen model.
+
+    From the complex eigenvalues of the first-order form of (M, D, K) with damping time
+    ``beta`` (s): zeta = -Re(lambda) / abs(lambda).
+    """
+    import scipy.linalg
+
+    M, K, D = frozen_system(params, theta1, theta4, elements_per_link, beta)
+    m = len(M)
+    Z, I = np.zeros((m, m)), np.eye(m)
+    lam = scipy.linalg.eigvals(np.block([[Z, I], [-np.linalg.solve(M, K), -np.linalg.solve(M, D)]]))
+    lam = lam[lam.imag > 0]
+    lam = lam[np.argsort(np.abs(lam))][:n]
+    return np.abs(lam) / (2 * np.pi), -lam.real / np.abs(lam)
+
+
+@dataclass
+class MultibodySteadyState:
+    """One steady period of the multibody model, read like :class:`fivebar.steady.SteadyState`.
+
+    Attributes
+    ----------
+    t
+        Times (s) of the S + 1 samples from crank angle 0 over one period (from 0).
+    positions
+        Per link, node positions (m) at the samples, (S + 1, nodes, 2).
+    periods
+        Periods simulated (ramp included).
+    periodicity_error
+        max abs(y_last - y_previous) / peak-to-peak(y_last) over the transverse midpoint
+        curves of L2 and L3: the change over the last period.
+    seconds
+        Wall-clock time of the simulation.
+    """
+
+    params: Params
+    t: NDArray
+    positions: dict[str, NDArray]
+    periods: int
+    periodicity_error: float
+    seconds: float
+    elements_per_link: tuple[int, int, int, int]
+    steps_per_period: int
+
+    @property
+    def crank_angle(self) -> NDArray:
+        """Angle of crank AB (deg) from its initial angle, at the samples."""
+        return np.degrees(self.t * self.params.crank_speed)
+
+    def _rigid(self, link: str):
+        p = self.params
+        th1 = p.theta1_0 + p.crank_speed * self.t
+        th4 = p.theta4_0 + p.speed_ratio * p.crank_speed * self.t
+        P = positions(p, th1, th4)
+        a, b = LINKS[link]
+        d = P[b] - P[a]
+        e = d / np.linalg.norm(d, axis=-1, keepdims=True)
+        nrm = np.stack([-e[..., 1], e[..., 0]], axis=-1)
+        return P[a], d, e, nrm
+
+    def _displacement(self, link: str, s: float) -> tuple[NDArray, NDArray]:
+        Pa, d, e, nrm = self._rigid(link)
+        pos = self.positions[link]
+        i = int(round(s * (pos.shape[1] - 1)))
+        u = pos[:, i, :] - (Pa + s * d)
+        return np.sum(u * e, axis=-1), np.sum(u * nrm, axis=-1)
+
+    def midpoint(self, link: str, direction: str = "transverse") -> NDArray:
+        """Elastic displacement of the midpoint of a link over the period (mm).
+
+        Same definitions, directions and signs as :meth:`fivebar.steady.SteadyState.midpoint`.
+        """
+        if link not in LINKS:
+            raise ValueError(f"link = {link!r} is not allowed: use one of {list(LINKS)}")
+        if direction not in _DIRECTIONS:
+            raise ValueError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
+        if self.positions[link].shape[1] % 2 == 0:
+            raise ValueError(f"link = {link!r} has no node at its midpoint in this mesh")
+        ax, tr = self._displacement(link, 0.5)
+        if direction == "longitudinal":
+            return 1e3 * ax
+        if direction == "transverse":
+            return 1e3 * tr
+        _, tr0 = self._displacement(link, 0.0)
+        _, tr1 = self._displacement(link, 1.0)
+        return 1e3 * (tr - 0.5 * (tr0 + tr1))
+
+    def peak_to_peak(self, link: str, direction: str = "transverse") -> float:
+        """Peak-to-peak value (mm) of :meth:`midpoint` over the period."""
+        y = self.midpoint(link, direction)
+        return float(y.max() - y.min())
+
+
+def multibody_steady_state(
+    params: Params,
+    crank_speed_rpm: float | None = None,
+    steps_per_period: int = 400,
+    samples: int | None = None,
+    elements_per_link=DEFAULT_ELEMENTS,
+    tol: float = 1e-3,
+    ramp_periods: int = 2,
+    max_periods: int = 200,
+    damping_mode: int = 1,
+) -> MultibodySteadyState:
+    """Periodic steady state of the fully coupled multibody model (Exudyn).
+
+    ``res = multibody_steady_state(params)``; ``res.midpoint("L2", "chord")`` (mm at the
+    ``samples + 1`` crank angles of one period from 0, as ``steady_state``).
+
+    Parameters
+    ----------
+    crank_speed_rpm
+        Speed of both cranks (r/min); ``None`` takes the parameter file's assumption.
+    steps_per_period
+        Time steps of the generalised-alpha integrator per crank turn (a multiple of samples).
+    samples
+        S: samples per period (default ``params.steps_per_period``, 100).
+    elements_per_link
+        ANCF elements per link L1..L4 (couplers even).
+    tol
+        Stop when the transverse midpoint curves of L2 and L3 change over one period by less
+        than ``tol`` times their peak-to-peak value.
+    ramp_periods
+        Duration of the smooth run-up of the crank speed, in periods (even).
+    damping_mode
+        The frozen mode (1 = lowest, at the initial crank angles) on which the Kelvin-Voigt
+        damping gives ``params.damping_ratio``.
+    """
+    exu = _exudyn()
+    if crank_speed_rpm is not None:
+        params = params.replace(crank_speed_rpm=crank_speed_rpm)
+    S = params.steps_per_period if samples is None else int(samples)
+    if S < 2 or steps_per_period % S:
+        raise ValueError(f"steps_per_period = {steps_per_period!r} is not allowed: give a multiple of "
+                         f"the samples per period S = {S}")
+    if ramp_periods < 0 or ramp_periods % 2:
+        raise ValueError(f"ramp_periods = {ramp_periods!r} is not allowed: give an even number >= 0")
+    if not tol > 0:
+        raise ValueError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
+    T, W = params.period, params.crank_speed
+    f = multibody_frequencies(params, params.theta1_0, params.theta4_0, damping_mode, elements_per_link)
+    beta = 2 * params.damping_ratio / (2 * np.pi * f[damping_mode - 1])
+    t0 = time.perf_counter()
+    model = build(params, elements_per_link=elements_per_link, beta=beta, crank_speed=W,
+                  ramp=ramp_periods * T)
+    mbs = model.mbs
+    sub = steps_per_period // S
+    dt = T / steps_per_period
+    links = list(LINKS)
+    ref = {k: model.reference[k] for k in links}
+    record: list[dict[str, NDArray]] = []
+    state = {"step": 0, "error": np.inf, "periods": 0}
+
+    def sample() -> dict[str, NDArray]:
+        q = np.asarray(mbs.systemData.GetODE2Coordinates())
+        return {k: ref[k] + q[model.coords[k]] for k in links}
+
+    def midpoints(rec):
+        out = []
+        for k in ("L2", "L3"):
+            arr = np.array([r[k] for r in rec])  # (S+1, nodes, 2)
+            out.append(arr)
+        return out
+
+    def pre_step(mbs_, t):
+        # called before the step that ends at t: the state is that of t - dt
+        k = int(round(t / dt)) - 1
+        if k % sub == 0 and k // sub == len(record):
+            record.append(sample())
+            n_samples = len(record) - 1
+            if n_samples and n_samples % S == 0:
+                periods = n_samples // S
+                state["periods"] = periods
+                if periods >= ramp_periods + 2:
+                    now = _steady(params, record[-S - 1:], ramp_periods)
+                    before = _steady(params, record[-2 * S - 1: -S], ramp_periods)
+                    err = 0.0
+                    for link in ("L2", "L3"):
+                        y, y0 = now.midpoint(link), before.midpoint(link)
+                        err = max(err, float(np.abs(y - y0).max() / max(np.ptp(y), 1e-300)))
+                    state["error"] = err
+                    if err <= tol:
+                        return False
+        return True
+
+    mbs.SetPreStepUserFunction(pre_step)
+    ss = exu.SimulationSettings()
+    ti = ss.timeIntegration
+    ti.numberOfSteps = steps_per_period * max_periods + 1
+    ti.endTime = dt * ti.numberOfSteps
+    ti.generalizedAlpha.spectralRadius = 0.8
+    ti.newton.relativeTolerance = 1e-9
+    ti.newton.absoluteTolerance = 1e-6
+    ti.verboseMode = 0
+    ti.adaptiveStep = False
+    ss.solution.file.write = False
+    ss.show.statistics = False
+    ss.show.computationTime = False
+    ss.linearSolver.solverType = exu.LinearSolverType.EXUdense
+    console = exu.config.printToConsole
+    exu.config.printToConsole = False  # Exudyn warns about the Python user functions' allocations
+    try:
+        mbs.SolveDynamic(ss)
+    except Exception as err:  # Exudyn raises its own error types
+        raise MultibodyError(f"Exudyn's dynamic solver failed at t = {mbs.systemData.GetTime():.6g} s: {err}") from err
+    finally:
+        exu.config.printToConsole = console
+    seconds = time.perf_counter() - t0
+    if state["error"] > tol:
+        raise MultibodyError(
+            f"no periodic steady state after {state['periods']} periods: the last relative change over "
+            f"one period was {state['error']:.3e} (tolerance {tol:.1e})")
+    res = _steady(params, record[-S - 1:], ramp_periods)
+    res.periods = state["periods"]
+    res.periodicity_error = state["error"]
+    res.seconds = seconds
+    res.elements_per_link = model.elements_per_link
+    res.steps_per_period = steps_per_period
+    return res
+
+
+def _steady(params: Params, rec: list[dict[str, NDArray]], ramp_periods: int) -> MultibodySteadyState:
+    S = len(rec) - 1
+    t = np.arange(S + 1) * params.period / S
+    pos = {k: np.array([r[k] for r in rec]) for k in LINKS}
+    return MultibodySteadyState(params, t, pos, 0, np.nan, np.nan, (0, 0, 0, 0), 0)
