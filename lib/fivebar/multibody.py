@@ -52,6 +52,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from .errors import ComputationError, InputError
 from .kinematics import LINKS, link_angles, positions
 from .params import Params
 
@@ -70,7 +71,7 @@ _DIRECTIONS = ("transverse", "longitudinal", "chord")
 DEFAULT_ELEMENTS = (2, 4, 4, 2)
 
 
-class MultibodyError(RuntimeError):
+class MultibodyError(ComputationError):
     """The multibody model could not be built or did not reach a periodic steady state."""
 
 
@@ -90,7 +91,7 @@ def _exudyn():
 def _check_mesh(elements_per_link) -> tuple[int, int, int, int]:
     epl = tuple(int(n) for n in elements_per_link)
     if len(epl) != 4 or any(n < 1 for n in epl) or epl[1] % 2 or epl[2] % 2:
-        raise ValueError(
+        raise InputError(
             f"elements_per_link = {elements_per_link!r} is not allowed: give four positive "
             "integers (L1..L4) with even numbers for the couplers L2 and L3"
         )
@@ -260,11 +261,11 @@ def multibody_frequencies(
     import scipy.linalg
 
     if isinstance(n, bool) or int(n) != n or n < 1:
-        raise ValueError(f"n = {n!r} is not allowed: give a positive integer number of modes")
+        raise InputError(f"n = {n!r} is not allowed: give a positive integer number of modes")
     M, K, _ = frozen_system(params, theta1, theta4, elements_per_link)
     w2 = scipy.linalg.eigh(K, M, eigvals_only=True)
     if len(w2) < n:
-        raise ValueError(f"n = {n!r} is not allowed: the model has {len(w2)} modes")
+        raise InputError(f"n = {n!r} is not allowed: the model has {len(w2)} modes")
     return np.sqrt(np.clip(w2[: int(n)], 0.0, None)) / (2 * np.pi)
 
 
@@ -344,11 +345,11 @@ class MultibodySteadyState:
         Same definitions, directions and signs as :meth:`fivebar.steady.SteadyState.midpoint`.
         """
         if link not in LINKS:
-            raise ValueError(f"link = {link!r} is not allowed: use one of {list(LINKS)}")
+            raise InputError(f"link = {link!r} is not allowed: use one of {list(LINKS)}")
         if direction not in _DIRECTIONS:
-            raise ValueError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
+            raise InputError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
         if self.positions[link].shape[1] % 2 == 0:
-            raise ValueError(f"link = {link!r} has no node at its midpoint in this mesh")
+            raise InputError(f"link = {link!r} has no node at its midpoint in this mesh")
         ax, tr = self._displacement(link, 0.5)
         if direction == "longitudinal":
             return 1e3 * ax
@@ -404,12 +405,12 @@ def multibody_steady_state(
         params = params.replace(crank_speed_rpm=crank_speed_rpm)
     S = params.steps_per_period if samples is None else int(samples)
     if S < 2 or steps_per_period % S:
-        raise ValueError(f"steps_per_period = {steps_per_period!r} is not allowed: give a multiple of "
+        raise InputError(f"steps_per_period = {steps_per_period!r} is not allowed: give a multiple of "
                          f"the samples per period S = {S}")
     if ramp_periods < 0 or ramp_periods % 2:
-        raise ValueError(f"ramp_periods = {ramp_periods!r} is not allowed: give an even number >= 0")
+        raise InputError(f"ramp_periods = {ramp_periods!r} is not allowed: give an even number >= 0")
     if not tol > 0:
-        raise ValueError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
+        raise InputError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
     T, W = params.period, params.crank_speed
     f = multibody_frequencies(params, params.theta1_0, params.theta4_0, damping_mode, elements_per_link)
     beta = 2 * params.damping_ratio / (2 * np.pi * f[damping_mode - 1])
