@@ -192,6 +192,27 @@ def assumption_label(key: str) -> str:
     return f"assumption-{key.strip().lower()}"
 
 
+_MENTION = re.compile(r"\b(E\d{1,2})\b")
+
+
+def _linked(text: str, ids: set[str], docname: str) -> list[nodes.Node]:
+    """``text`` with every mention of an erratum id (``E26``) as a link to its row."""
+    out: list[nodes.Node] = []
+    pos = 0
+    for m in _MENTION.finditer(text):
+        if m.group(1) not in ids:
+            continue
+        out.append(nodes.Text(text[pos:m.start()]))
+        ref = addnodes.pending_xref("", refdomain="std", reftype="ref", refexplicit=True,
+                                    reftarget=erratum_label(m.group(1)), refwarn=True,
+                                    refdoc=docname)
+        ref += nodes.inline(text=m.group(1), classes=["fivebar-erratum"])
+        out.append(ref)
+        pos = m.end()
+    out.append(nodes.Text(text[pos:]))
+    return out
+
+
 def _errata_rows(df: Any, fmt: Any, inline: Any) -> tuple[list[str], list[list[nodes.Node]], list[int], list[str]]:
     """Three columns that read well in the book's text width (all fields of the frame)."""
     rows, ids = [], []
@@ -207,8 +228,8 @@ def _errata_rows(df: Any, fmt: Any, inline: Any) -> tuple[list[str], list[list[n
             else:
                 text += _labelled(label, nodes.literal(text=fmt(r[plain])))
         why = nodes.container()
-        why += _para(nodes.Text(fmt(r["reason"])))
-        why += _labelled("Verified by:", nodes.Text(fmt(r["verified by"])))
+        why += _para(*inline.link(fmt(r["reason"])))
+        why += _labelled("Verified by:", *inline.link(fmt(r["verified by"])))
         rows.append([where, text, why])
         ids.append(erratum_label(r["id"]))
     return ["Where", "Printed, and read as", "Why, and what verifies it"], rows, [18, 34, 48], ids
@@ -222,7 +243,7 @@ def _assumption_rows(df: Any, fmt: Any, inline: Any) -> tuple[list[str], list[li
         key = nodes.container()
         key += _para(nodes.literal(text=fmt(r["key"])))
         key += _para(nodes.Text("= " + value))
-        row = [key, _para(nodes.Text(fmt(r["reason"]))), _para(nodes.Text(fmt(r["alternative"])))]
+        row = [key, _para(*inline.link(fmt(r["reason"]))), _para(*inline.link(fmt(r["alternative"])))]
         if "effect on Figure 6" in r:
             row.append(_para(nodes.Text(fmt(r["effect on Figure 6"]))))
         rows.append(row)
@@ -256,6 +277,7 @@ class FivebarTable(SphinxDirective):
         for dep in reporting.data_files():
             self.env.note_dependency(str(dep))
         self.env.note_dependency(reporting.__file__)
+        self.env.note_dependency(__file__)  # this extension lays the table out
         kwargs = {"effects": True} if name == "assumptions" else {"math": True}
         try:
             df = getattr(reporting, func)(**kwargs)
@@ -265,6 +287,9 @@ class FivebarTable(SphinxDirective):
         def inline(text: str) -> list[nodes.Node]:
             parsed, msgs = self.state.inline_text(text, self.lineno)
             return [*parsed, *msgs]
+
+        known = set(reporting.errata_table()["id"])
+        inline.link = lambda text: _linked(text, known, self.env.docname)  # type: ignore[attr-defined]
 
         header, rows, widths, ids = layout(df, reporting.format_value, inline)
         table = _table(header, rows, widths, [f"fivebar-{name}"])
