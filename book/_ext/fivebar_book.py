@@ -130,6 +130,13 @@ def _builder_inited(app: Sphinx) -> None:
         return
     n = copy_mathjax(Path(app.outdir))
     logger.info(f"[fivebar_book] MathJax 3 served from _static/{MATHJAX_PATH} ({n} files updated)")
+    # Sphinx 7.4 does not overwrite a static file that is already in the build, so an edited
+    # stylesheet would not reach an incremental build: copy the book's own files every time.
+    for src in (Path(__file__).resolve().parent / "static").glob("*"):
+        if src.is_file():
+            dst = Path(app.outdir) / "_static" / src.name
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(src, dst)
 
 
 # --------------------------------------------------------------------------------------------
@@ -646,6 +653,43 @@ def _escape_bars(app: Sphinx, what: str, name: str, obj: Any, options: Any,
             block_indent = indent
 
 
+_ERRATA_IDS: set[str] | None = None
+
+
+def _link_errata_in_docstring(app: Sphinx, what: str, name: str, obj: Any, options: Any,
+                              lines: list[str]) -> None:
+    # A docstring that names an erratum ("errata E26") links it to its row on the errata
+    # page, as the {erratum} role does in the chapters (prose only: not in literals, roles,
+    # math, code or other directive blocks).
+    global _ERRATA_IDS
+    if _ERRATA_IDS is None:
+        import fivebar.reporting as reporting
+
+        _ERRATA_IDS = set(reporting.errata_table()["id"])
+    block_indent: int | None = None
+    for i, line in enumerate(lines):
+        stripped = line.lstrip()
+        indent = len(line) - len(stripped)
+        if block_indent is not None:
+            if not stripped or indent > block_indent:
+                continue
+            block_indent = None
+        if stripped.startswith((">>>", "... ")):
+            continue
+        if stripped.startswith(".. "):
+            block_indent = indent
+            continue
+        if _MENTION.search(line):
+            parts = _QUOTED.split(line)
+            lines[i] = "".join(
+                p if k % 2 else _MENTION.sub(
+                    lambda m: (f":ref:`{m.group(1)} <{erratum_label(m.group(1))}>`"
+                               if m.group(1) in _ERRATA_IDS else m.group(1)), p)
+                for k, p in enumerate(parts))
+        if stripped.endswith("::"):
+            block_indent = indent
+
+
 _API: dict[str, set[str]] | None = None
 
 
@@ -742,6 +786,7 @@ def setup(app: Sphinx) -> dict[str, Any]:
     app.connect("build-finished", _build_finished)
     app.connect("html-page-context", _html_page_context, priority=900)
     app.connect("autodoc-process-docstring", _escape_bars, priority=300)
+    app.connect("autodoc-process-docstring", _link_errata_in_docstring, priority=350)
     app.connect("autodoc-process-docstring", _keep_raw_doc, priority=400)
     app.connect("autodoc-process-docstring", _restore_raw_doc, priority=600)
     app.add_css_file("fivebar_book.css")
