@@ -545,6 +545,14 @@ _READER_CHECKS = r"""(opts) => {
                       value: `content ${el.scrollWidth} px in a ${el.clientWidth} px box`});
         }
     }
+    // content wider than its table cell runs into the next cell (or is clipped)
+    for (const cell of article.querySelectorAll('td, th')) {
+        if (!visible(cell)) continue;
+        if (cell.scrollWidth > cell.clientWidth + 1) {
+            out.push({check: 'overflows its table cell', element: describe(cell),
+                      value: `content ${cell.scrollWidth} px in a ${cell.clientWidth} px cell`});
+        }
+    }
     if (opts.desktop) {
         const needScroll = article.querySelectorAll('table, div.math, mjx-container[display="true"], '
             + 'div.highlight pre, div.cell_output pre, div.output pre, .table-wrapper, '
@@ -622,9 +630,10 @@ def test_page_reads_as_a_book(book, server, browser, doc, size):
     m = re.match(r"(\d+)_", doc)
     chapter = int(m.group(1)) if m else None
     page = browser.new_page()
+    page.set_default_timeout(120_000)  # long chapters on a busy machine
     try:
         page.set_viewport_size(VIEWPORTS[size])
-        page.goto(f"{server}/book/{doc}.html")
+        page.goto(f"{server}/book/{doc}.html", wait_until="load")
         _settle(page)
         found = page.evaluate(_READER_CHECKS, {"desktop": size == "1400", "chapter": chapter})
         SCREENSHOTS.mkdir(parents=True, exist_ok=True)
