@@ -66,10 +66,11 @@ LINK_COLORS: dict[str, str] = {
 }
 
 
-#: Width (in) of a figure that fills the book's text column.  The text column of the built
-#: book is 700-730 CSS px wide at a 1400 px window (measured in Chromium, see
-#: tests/test_browser.py); a 6.5 in figure at the inline resolution of 100 px/in is shown
-#: at 650 px, its natural size, so a 10 pt label appears at 10 pt.
+#: Width (in) of a figure for the book's text column.  The text column of the built book is
+#: 784 CSS px wide at a 1400 px window (measured in Chromium: the article's 848 px less its
+#: padding) and 358 px on a 390 px phone.  Inline figures are 2x PNGs shown at half their
+#: pixel width, 100 px per inch: a 6.5 in figure is shown at about 660 px, unscaled, so a
+#: 10 pt label appears at 10 pt (13.9 px) and the figure still fits a narrower window.
 COLUMN_WIDTH_IN = 6.5
 
 #: Smallest font size (pt) of any text in a figure of the book at the size it is shown.
