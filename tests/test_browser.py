@@ -9,8 +9,18 @@ Two groups of tests on ``_build/html``:
   from a local HTTP server and checks that it loads, that every resource it requests answers
   200 and none is requested from another host, that no JavaScript error is logged, that
   every image decodes, that MathJax typesets every equation, that the download links of the
-  chapters work, and that the search page finds a word of a chapter.  It saves screenshots
-  to ``_build/screenshots/``.
+  chapters work, and that the search page finds a word of a chapter;
+* the reader's edition (``test_page_reads_as_a_book``): every page of the table of contents
+  at 1400x900 and at 390x844 has nothing cut off (no element past the text column unless it
+  scrolls inside its own box; at 1400 px not even that for tables, equations and code; no
+  horizontal scrolling of the page; no content clipped by ``overflow: hidden``), no visible
+  ``assert`` in code cells, raster figures of at least 1.5x their displayed pixel width (or
+  SVG), every mention of an erratum (``E26``) in the prose a link, and chapter titles
+  numbered.  A full-page screenshot of every page at both sizes goes to
+  ``_build/screenshots/`` and every violation, naming page, element and measured value, to
+  ``_build/screenshots/violations.json``.  The chapters listed in :data:`PHASE_TWO` are
+  restyled in a second step: their violations are reported as expected failures (xfail),
+  every other page must pass.
 
 The book is built by ``make book`` (``make test`` depends on it).  If ``_build/html`` is
 missing or older than its sources, the ``book`` fixture runs ``make book`` itself.  Under CI
@@ -447,3 +457,207 @@ def test_screenshots(book, server, browser):
             assert out.stat().st_size > 10_000, f"{out} looks empty"
     finally:
         page.close()
+
+
+# --------------------------------------------------------------------------------------------
+# The reader's edition: nothing cut off, no visible asserts, sharp figures, linked errata,
+# numbered chapters.  One test per page and window size.
+# --------------------------------------------------------------------------------------------
+
+#: Window sizes of the reader's-edition checks: a desktop and a phone.
+VIEWPORTS = {"1400": {"width": 1400, "height": 900}, "390": {"width": 390, "height": 844}}
+
+#: Chapters whose restyle (hidden asserts, figures in the book style, linked errata mentions)
+#: is the second step of the reader's edition: their violations are expected failures until
+#: then.  Remove a chapter from this set when it passes.
+PHASE_TWO = {
+    "01_mechanism", "02_elements", "03_assembly", "04_electromagnetics", "05_modes",
+    "06_newmark", "07_excitation", "08_multiple_scales", "09_figure6", "10_control",
+    "11_multibody",
+    # the API reference: display equations of module docstrings wider than the column at
+    # 1400 px (they scroll in their box); to be broken over lines in the docstrings
+    "api",
+}
+
+
+def _toc_pages() -> list[str]:
+    """The pages of the table of contents, as paths below book/ without suffix."""
+    toc = (ROOT / "_toc.yml").read_text(encoding="utf-8")
+    root = re.search(r"^root:\s*(\S+)", toc, re.M)
+    pages = ([root.group(1)] if root else []) + re.findall(r"^\s*-\s*file:\s*(\S+)", toc, re.M)
+    return [p.removeprefix("book/") for p in pages]
+
+
+#: Measures one page in the browser; returns the violations as {check, element, value}.
+_READER_CHECKS = r"""(opts) => {
+    const out = [];
+    const article = document.querySelector('article.bd-article') || document.querySelector('main');
+    if (!article) { return [{check: 'layout', element: 'article', value: 'no article element'}]; }
+    const cs = getComputedStyle(article);
+    const box = article.getBoundingClientRect();
+    const colLeft = box.left + parseFloat(cs.paddingLeft), colRight = box.right - parseFloat(cs.paddingRight);
+    const describe = (el) => {
+        let d = el.tagName.toLowerCase();
+        if (el.id) d += '#' + el.id;
+        const cls = (el.getAttribute('class') || '').trim().split(/\s+/).filter(Boolean).slice(0, 3);
+        if (cls.length) d += '.' + cls.join('.');
+        const sec = el.closest('section[id]');
+        const txt = (el.textContent || '').replace(/\s+/g, ' ').trim().slice(0, 50);
+        return d + (sec ? ` in section #${sec.id}` : '') + (txt ? ` ("${txt}")` : '');
+    };
+    const visible = (el) => el.checkVisibility
+        ? el.checkVisibility({opacityProperty: true, visibilityProperty: true})
+        : el.offsetParent !== null;
+    const scrollsX = (el) => ['auto', 'scroll'].includes(getComputedStyle(el).overflowX);
+    // 1. no horizontal scrolling of the page
+    const doc = document.scrollingElement || document.documentElement;
+    if (doc.scrollWidth > doc.clientWidth + 1) {
+        out.push({check: 'page scrolls horizontally', element: 'html',
+                  value: `scrollWidth ${doc.scrollWidth} px > ${doc.clientWidth} px`});
+    }
+    // 2. nothing past the text column unless inside its own scroll box; at the desktop width
+    //    tables, equations and code must not even need to scroll
+    const kinds = 'table, pre, div.math, mjx-container[display="true"], img, svg, figure, '
+                + 'div.cell_output, div.output, div.highlight, p, li, dl, blockquote, iframe, video, '
+                + 'code, h1, h2, h3, h4, dt';
+    for (const el of article.querySelectorAll(kinds)) {
+        if (!visible(el) || el.closest('mjx-container') && el.tagName.toLowerCase() !== 'mjx-container') continue;
+        if (el.closest('svg') && el.tagName.toLowerCase() === 'svg' && el.parentElement.closest('svg')) continue;
+        const r = el.getBoundingClientRect();
+        if (r.width === 0 || r.height === 0) continue;
+        const over = Math.max(r.right - colRight, colLeft - r.left);
+        if (over > 1) {
+            let scroller = null;
+            for (let a = el.parentElement; a && a !== article; a = a.parentElement) {
+                if (scrollsX(a)) { scroller = a; break; }
+            }
+            const sr = scroller ? scroller.getBoundingClientRect() : null;
+            if (!scroller || sr.right > colRight + 1 || sr.left < colLeft - 1) {
+                out.push({check: 'cut off (past the text column, no scroll box)', element: describe(el),
+                          value: `${Math.round(r.width)} px wide, ${Math.round(over)} px past a ${Math.round(colRight - colLeft)} px column`});
+            }
+        }
+        // content clipped by its own box (overflow hidden/clip)
+        const ov = getComputedStyle(el).overflowX;
+        if (['hidden', 'clip'].includes(ov) && el.scrollWidth > el.clientWidth + 1 && el.clientWidth > 0
+            && !el.matches('figure, p, li')) {
+            out.push({check: 'clipped (overflow hidden)', element: describe(el),
+                      value: `content ${el.scrollWidth} px in a ${el.clientWidth} px box`});
+        }
+    }
+    // content wider than its table cell runs into the next cell (or is clipped)
+    for (const cell of article.querySelectorAll('td, th')) {
+        if (!visible(cell)) continue;
+        if (cell.scrollWidth > cell.clientWidth + 1) {
+            out.push({check: 'overflows its table cell', element: describe(cell),
+                      value: `content ${cell.scrollWidth} px in a ${cell.clientWidth} px cell`});
+        }
+    }
+    if (opts.desktop) {
+        const needScroll = article.querySelectorAll('table, div.math, mjx-container[display="true"], '
+            + 'div.highlight pre, div.cell_output pre, div.output pre, .table-wrapper, '
+            + '.pst-scrollable-table-container, div.output.text_html');
+        for (const el of needScroll) {
+            if (!visible(el)) continue;
+            if (el.scrollWidth > el.clientWidth + 1 && scrollsX(el)) {
+                out.push({check: 'needs horizontal scrolling at 1400 px', element: describe(el),
+                          value: `content ${el.scrollWidth} px in a ${el.clientWidth} px box`});
+            }
+        }
+    }
+    // 3. no visible assert in code cells
+    for (const pre of article.querySelectorAll('div.cell_input pre, div.cell div.highlight pre')) {
+        if (!visible(pre)) continue;
+        const lines = pre.textContent.split('\n').filter(l => /^\s*assert\b/.test(l));
+        if (lines.length) {
+            out.push({check: 'visible assert', element: describe(pre.closest('div.cell') || pre),
+                      value: `${lines.length} line(s): ${lines[0].trim().slice(0, 60)}`});
+        }
+    }
+    // 4. raster figures at least 1.5x their displayed width
+    for (const img of article.querySelectorAll('img')) {
+        if (!visible(img)) continue;
+        const src = img.currentSrc || img.src || '';
+        if (/\.svg(\?|#|$)/i.test(src) || src.startsWith('data:image/svg')) continue;
+        const shown = img.getBoundingClientRect().width;
+        if (shown > 0 && img.naturalWidth < 1.5 * shown - 0.5) {
+            out.push({check: 'raster figure below 1.5x', element: describe(img) + ' ' + src.split('/').pop(),
+                      value: `${img.naturalWidth} px natural for ${Math.round(shown)} px shown (${(img.naturalWidth / shown).toFixed(2)}x)`});
+        }
+    }
+    // 5. every erratum mention in the prose is a link
+    const walker = document.createTreeWalker(article, NodeFilter.SHOW_TEXT);
+    const skip = 'a, code, pre, kbd, samp, .cell_input, .cell_output, .output, mjx-container, '
+               + 'script, style, table.fivebar-errata tr > td:first-child, .headerlink';
+    for (let n = walker.nextNode(); n; n = walker.nextNode()) {
+        const m = n.textContent.match(/\bE\d{1,2}\b/g);
+        if (!m) continue;
+        const host = n.parentElement;
+        if (!host || host.closest(skip) || !visible(host)) continue;
+        out.push({check: 'erratum mention not a link', element: describe(host),
+                  value: m.join(', ')});
+    }
+    // 6. chapter titles numbered
+    if (opts.chapter !== null) {
+        const h1 = Array.from(article.querySelectorAll('h1')).find(visible);
+        const text = h1 ? h1.textContent.trim() : '';
+        const num = (text.match(/^(\d+)\.\s/) || [])[1];
+        if (String(Number(num)) !== String(opts.chapter)) {
+            out.push({check: 'chapter title not numbered', element: 'h1',
+                      value: `"${text.slice(0, 60)}" (expected "${opts.chapter}. ...")`});
+        }
+    }
+    return out;
+}"""
+
+_VIOLATIONS: dict[str, list[dict]] = {}
+
+
+def _write_violations() -> None:
+    import json
+
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    (SCREENSHOTS / "violations.json").write_text(
+        json.dumps(_VIOLATIONS, indent=1, ensure_ascii=False, sort_keys=True), encoding="utf-8")
+
+
+@pytest.mark.parametrize("size", sorted(VIEWPORTS))
+@pytest.mark.parametrize("doc", _toc_pages())
+def test_page_reads_as_a_book(book, server, browser, doc, size):
+    """Nothing cut off, no visible assert, sharp figures, linked errata, numbered chapters."""
+    html = book / "book" / f"{doc}.html"
+    assert html.is_file(), f"book/{doc}.html was not built"
+    m = re.match(r"(\d+)_", doc)
+    chapter = int(m.group(1)) if m else None
+    page = browser.new_page()
+    page.set_default_timeout(120_000)  # long chapters on a busy machine
+    try:
+        page.set_viewport_size(VIEWPORTS[size])
+        page.goto(f"{server}/book/{doc}.html", wait_until="load")
+        _settle(page)
+        found = page.evaluate(_READER_CHECKS, {"desktop": size == "1400", "chapter": chapter})
+        SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(SCREENSHOTS / f"{doc}-{size}.png"), full_page=True)
+    finally:
+        page.close()
+    key = f"book/{doc}.html at {size} px"
+    _VIOLATIONS[key] = found
+    _write_violations()
+    if not found:
+        return
+    lines = [f"{key}: {len(found)} violation(s)"]
+    lines += [f"  [{v['check']}] {v['element']}: {v['value']}" for v in found[:60]]
+    if len(found) > 60:
+        lines.append(f"  ... and {len(found) - 60} more (see _build/screenshots/violations.json)")
+    if doc in PHASE_TWO:
+        pytest.xfail("\n".join(lines))
+    pytest.fail("\n".join(lines), pytrace=False)
+
+
+def test_erratum_mentions_in_docstrings_become_links():
+    lines = ["Corrected (errata E1, E26); not ``E3`` or :math:`E_3`.", ".. math::", "",
+             "    E1 = 0", "", "E99 is not an erratum."]
+    _extension()._link_errata_in_docstring(None, "function", "f", None, None, lines)
+    assert lines == ["Corrected (errata :ref:`E1 <erratum-e1>`, :ref:`E26 <erratum-e26>`); "
+                     "not ``E3`` or :math:`E_3`.", ".. math::", "", "    E1 = 0", "",
+                     "E99 is not an erratum."]

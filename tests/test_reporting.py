@@ -101,3 +101,35 @@ def test_assumptions_table_shows_overrides():
 )
 def test_format_value(value, text):
     assert format_value(value) == text
+
+
+def test_errata_math_columns_are_the_optional_tex_fields(tmp_path):
+    with open(reporting.ERRATA_PATH, "rb") as fh:
+        entries = tomllib.load(fh)["erratum"]
+    df = errata_table(math=True)
+    assert list(df.columns)[-2:] == ["printed (math)", "read as (math)"]
+    assert list(df["read as (math)"]) == [e.get("read_as_tex", "").strip() for e in entries]
+    # the formulas are LaTeX between dollars, balanced
+    for text in [t for t in df["printed (math)"].tolist() + df["read as (math)"].tolist() if t]:
+        assert text.count("$") % 2 == 0 and "$" in text, text
+    f = tmp_path / "e.toml"
+    f.write_text(ERRATUM.format(id="X1").replace('reason = "why"', 'reason = "why"\nread_as_tex = ""'))
+    with pytest.raises(ReportError, match="field 'read_as_tex' = '' is not allowed"):
+        errata_table(f)
+
+
+def test_table_hides_the_index_and_rounds_to_significant_digits():
+    import pandas as pd
+
+    from fivebar.reporting import table
+
+    df = pd.DataFrame({"speed (r/min)": [60, 1440], "L2 p-p (um)": [24.8941234, 103022.5021]})
+    html = table(df).to_html()
+    assert "24.89" in html and "1.03e+05" in html and "24.894" not in html
+    assert 'class="row_heading' not in html  # no index column
+    assert html == table(df.copy()).to_html()  # the same HTML on every run
+    # a named index becomes a column
+    html = table(df.set_index("speed (r/min)"), digits=2).to_html()
+    assert "speed (r/min)" in html and "25" in html and 'class="row_heading' not in html
+    with pytest.raises(ReportError, match="digits = 0 is not allowed"):
+        table(df, digits=0)

@@ -1,6 +1,6 @@
 """Local Sphinx extension of the fivebar book.
 
-Loaded by ``_config.yml`` (``sphinx.local_extensions``).  It does three things:
+Loaded by ``_config.yml`` (``sphinx.local_extensions``).  It does five things:
 
 1. **Offline MathJax.**  The book must render without a network.  MathJax 3 comes from the
    PyPI package ``django-static-mathjax`` (MathJax 3.2.2's files, no dependencies): at
@@ -15,9 +15,17 @@ Loaded by ``_config.yml`` (``sphinx.local_extensions``).  It does three things:
    whenever ``data/errata.toml`` or ``data/wang2011.toml`` changes.
 
 3. **The equation index.**  ``{equation-index}`` takes one line per equation of the paper,
-   ``A.6 | what it is | issue``, and fills in which library objects cite that equation in
-   their docstrings and which chapters cite it in their text, so the index cannot fall out of
-   date; an equation cited nowhere yet is shown as "planned in issue #N".
+   ``A.6 | what it is``, and fills in which library objects cite that equation in their
+   docstrings and which chapters cite it in their text, so the index cannot fall out of date.
+
+4. **Links to the errata.**  Every row of the errata and assumptions tables carries an anchor
+   (``erratum-e26``, ``assumption-crank_speed_rpm``), and the roles ``{erratum}`E26``` and
+   ``{assumption}`crank_speed_rpm``` link a mention in any page to its row.  An id that is
+   not in ``data/errata.toml`` or the parameter file fails the build, naming the allowed ids.
+
+5. **The linkage figure of the front page.**  ``{linkage-figure}`` draws Figure 1 with
+   :func:`fivebar.plotting.draw_linkage` at build time and embeds it as inline SVG, so the
+   picture can never drift from the model's geometry.
 """
 
 from __future__ import annotations
@@ -31,6 +39,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from docutils import nodes
 from docutils.parsers.rst import directives
 from sphinx import addnodes
@@ -121,6 +130,13 @@ def _builder_inited(app: Sphinx) -> None:
         return
     n = copy_mathjax(Path(app.outdir))
     logger.info(f"[fivebar_book] MathJax 3 served from _static/{MATHJAX_PATH} ({n} files updated)")
+    # Sphinx 7.4 does not overwrite a static file that is already in the build, so an edited
+    # stylesheet would not reach an incremental build: copy the book's own files every time.
+    for src in (Path(__file__).resolve().parent / "static").glob("*"):
+        if src.is_file():
+            dst = Path(app.outdir) / "_static" / src.name
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(src, dst)
 
 
 # --------------------------------------------------------------------------------------------
@@ -173,39 +189,76 @@ def _labelled(label: str, *children: nodes.Node) -> nodes.paragraph:
     return _para(nodes.strong(text=label + " "), *children)
 
 
-def _errata_rows(df: Any, fmt: Any) -> tuple[list[str], list[list[nodes.Node]], list[int]]:
+def erratum_label(eid: str) -> str:
+    """The anchor (and Sphinx label) of an erratum's row: ``E26`` -> ``erratum-e26``."""
+    return f"erratum-{eid.strip().lower()}"
+
+
+def assumption_label(key: str) -> str:
+    """The anchor of an assumption's row: ``crank_speed_rpm`` -> ``assumption-crank_speed_rpm``."""
+    return f"assumption-{key.strip().lower()}"
+
+
+_MENTION = re.compile(r"\b(E\d{1,2})\b")
+
+
+def _linked(text: str, ids: set[str], docname: str) -> list[nodes.Node]:
+    """``text`` with every mention of an erratum id (``E26``) as a link to its row."""
+    out: list[nodes.Node] = []
+    pos = 0
+    for m in _MENTION.finditer(text):
+        if m.group(1) not in ids:
+            continue
+        out.append(nodes.Text(text[pos:m.start()]))
+        ref = addnodes.pending_xref("", refdomain="std", reftype="ref", refexplicit=True,
+                                    reftarget=erratum_label(m.group(1)), refwarn=True,
+                                    refdoc=docname)
+        ref += nodes.inline(text=m.group(1), classes=["fivebar-erratum"])
+        out.append(ref)
+        pos = m.end()
+    out.append(nodes.Text(text[pos:]))
+    return out
+
+
+def _errata_rows(df: Any, fmt: Any, inline: Any) -> tuple[list[str], list[list[nodes.Node]], list[int], list[str]]:
     """Three columns that read well in the book's text width (all fields of the frame)."""
-    rows = []
+    rows, ids = [], []
     for r in df.to_dict("records"):
         where = nodes.container()
         where += _para(nodes.strong(text=fmt(r["id"])))
         where += _para(nodes.Text(fmt(r["where"])))
         text = nodes.container()
-        text += _labelled("Printed:", nodes.literal(text=fmt(r["printed"])))
-        text += _labelled("Read as:", nodes.literal(text=fmt(r["read as"])))
+        for label, plain, tex in (("Printed:", "printed", "printed (math)"),
+                                  ("Read as:", "read as", "read as (math)")):
+            if r.get(tex):  # the formula typeset; the ASCII record stays in data/errata.toml
+                text += _labelled(label, *inline(r[tex]))
+            else:
+                text += _labelled(label, nodes.literal(text=fmt(r[plain])))
         why = nodes.container()
-        why += _para(nodes.Text(fmt(r["reason"])))
-        why += _labelled("Verified by:", nodes.Text(fmt(r["verified by"])))
+        why += _para(*inline.link(fmt(r["reason"])))
+        why += _labelled("Verified by:", *inline.link(fmt(r["verified by"])))
         rows.append([where, text, why])
-    return ["Where", "Printed, and read as", "Why, and what verifies it"], rows, [18, 34, 48]
+        ids.append(erratum_label(r["id"]))
+    return ["Where", "Printed, and read as", "Why, and what verifies it"], rows, [16, 38, 46], ids
 
 
-def _assumption_rows(df: Any, fmt: Any) -> tuple[list[str], list[list[nodes.Node]], list[int]]:
-    rows = []
+def _assumption_rows(df: Any, fmt: Any, inline: Any) -> tuple[list[str], list[list[nodes.Node]], list[int], list[str]]:
+    rows, ids = [], []
     for r in df.to_dict("records"):
         unit = fmt(r["unit"])
         value = fmt(r["value"]) + ("" if unit in ("", "-") else f" {unit}")
         key = nodes.container()
         key += _para(nodes.literal(text=fmt(r["key"])))
         key += _para(nodes.Text("= " + value))
-        row = [key, _para(nodes.Text(fmt(r["reason"]))), _para(nodes.Text(fmt(r["alternative"])))]
+        row = [key, _para(*inline.link(fmt(r["reason"]))), _para(*inline.link(fmt(r["alternative"])))]
         if "effect on Figure 6" in r:
             row.append(_para(nodes.Text(fmt(r["effect on Figure 6"]))))
         rows.append(row)
+        ids.append(assumption_label(r["key"]))
     if rows and len(rows[0]) == 4:
         header = ["Assumption and value", "Reason", "Alternative shown", "Effect on Figure 6 (p-p midpoint deflection)"]
-        return header, rows, [18, 38, 18, 26]
-    return ["Assumption and value", "Reason", "Alternative shown"], rows, [24, 50, 26]
+        return header, rows, [22, 38, 16, 24], ids
+    return ["Assumption and value", "Reason", "Alternative shown"], rows, [24, 50, 26], ids
 
 
 #: table name -> (function of fivebar.reporting, layout)
@@ -231,12 +284,29 @@ class FivebarTable(SphinxDirective):
         for dep in reporting.data_files():
             self.env.note_dependency(str(dep))
         self.env.note_dependency(reporting.__file__)
+        self.env.note_dependency(__file__)  # this extension lays the table out
+        kwargs = {"effects": True} if name == "assumptions" else {"math": True}
         try:
-            df = getattr(reporting, func)(**({"effects": True} if name == "assumptions" else {}))
+            df = getattr(reporting, func)(**kwargs)
         except Exception as exc:  # a malformed data file: fail the build with its message
             raise self.error(f"fivebar-table {name}: {exc}") from exc
-        header, rows, widths = layout(df, reporting.format_value)
-        return [_table(header, rows, widths, [f"fivebar-{name}"])]
+
+        def inline(text: str) -> list[nodes.Node]:
+            parsed, msgs = self.state.inline_text(text, self.lineno)
+            return [*parsed, *msgs]
+
+        known = set(reporting.errata_table()["id"])
+        inline.link = lambda text: _linked(text, known, self.env.docname)  # type: ignore[attr-defined]
+
+        header, rows, widths, ids = layout(df, reporting.format_value, inline)
+        table = _table(header, rows, widths, [f"fivebar-{name}"])
+        std = self.env.get_domain("std")
+        for row, label in zip(table.findall(nodes.row), [None, *ids]):  # header row first
+            if label is None:
+                continue
+            row["ids"].append(label)
+            std.note_hyperlink_target(label, self.env.docname, label)
+        return [table]
 
 
 # --------------------------------------------------------------------------------------------
@@ -330,8 +400,8 @@ def _source_text(path: Path) -> str:
 
 
 class EquationIndex(SphinxDirective):
-    """One row per line ``number | what it is | issue`` (issue optional; ``none`` for a number
-    that the paper skips, whose citations can only come from ranges such as (A.1)-(A.8))."""
+    """One row per line ``number | what it is``, or ``number | what it is | none`` for a number
+    that the paper skips (its citations can only come from ranges such as (A.1)-(A.8))."""
 
     has_content = True
     option_spec = {"exclude": directives.unchanged, "skip-docs": directives.unchanged}
@@ -363,14 +433,16 @@ class EquationIndex(SphinxDirective):
             parts = [p.strip() for p in line.split("|")]
             if len(parts) not in (2, 3) or not re.fullmatch(r"[234A]\.\d{1,2}", parts[0]):
                 raise self.error(
-                    f"equation-index line {lineno}: {line!r} is not 'number | text | issue' "
-                    "(number like 2.7 or A.6; the issue number is optional)"
+                    f"equation-index line {lineno}: {line!r} is not 'number | text' "
+                    "(number like 2.7 or A.6), or 'number | text | none' for a skipped number"
                 )
             eq, what = parts[0], parts[1]
-            issue = parts[2].lstrip("#") if len(parts) == 3 and parts[2] else ""
-            planned = f"planned in issue #{issue}" if issue else "not cited yet"
+            skipped = len(parts) == 3 and parts[2] == "none"
+            if len(parts) == 3 and parts[2] not in ("", "none"):
+                raise self.error(f"equation-index line {lineno}: third field {parts[2]!r} is not "
+                                 "allowed: leave it out, or write 'none' for a skipped number")
             what_nodes, msgs = self.state.inline_text(what, lineno)
-            if issue == "none":  # a number the paper skips: citations are range artefacts
+            if skipped:  # a number the paper skips: citations are range artefacts
                 rows.append([_para(nodes.Text(f"({eq})"), classes=["fivebar-eqno"]),
                              _para(*what_nodes, *msgs), _para(nodes.Text("—")),
                              _para(nodes.Text("—"))])
@@ -395,7 +467,7 @@ class EquationIndex(SphinxDirective):
                                            literal=True)
                 lib_cell += line
             if not objs:
-                lib_cell += _para(nodes.emphasis(text=planned))
+                lib_cell += _para(nodes.Text("—"))
             docs = chapters.get(eq, [])
             doc_cell = _para()
             for k, doc in enumerate(docs):
@@ -403,13 +475,13 @@ class EquationIndex(SphinxDirective):
                     doc_cell += nodes.Text(", ")
                 doc_cell += self._xref("std", "doc", "/" + doc, None, literal=False)
             if not docs:
-                doc_cell += nodes.emphasis(text=planned)
+                doc_cell += nodes.Text("—")
             rows.append([_para(nodes.Text(f"({eq})"), classes=["fivebar-eqno"]),
                          _para(*what_nodes, *msgs),
                          lib_cell, doc_cell])
         header = ["Eq.", "What it is", "Library (docstrings citing it)",
                   "Chapters (citing it)"]
-        return [_table(header, rows, [8, 34, 36, 22], ["fivebar-equations"])]
+        return [_table(header, rows, [10, 34, 34, 22], ["fivebar-equations"])]
 
     def _xref(self, domain: str, role: str, target: str, text: str | None,
               literal: bool) -> addnodes.pending_xref:
@@ -421,6 +493,112 @@ class EquationIndex(SphinxDirective):
         label = text if text is not None else target
         ref += nodes.literal(text=label) if literal else nodes.inline(text=label)
         return ref
+
+# --------------------------------------------------------------------------------------------
+# 4. Links to the errata: {erratum}`E26`, {assumption}`crank_speed_rpm`
+# --------------------------------------------------------------------------------------------
+
+
+def _known_ids() -> tuple[list[str], list[str]]:
+    """The errata ids and assumption keys of the data files (read at every build)."""
+    import fivebar.reporting as reporting
+
+    errata = [str(i) for i in reporting.errata_table()["id"]]
+    assumptions = [str(k) for k in reporting.assumptions_table()["key"]]
+    return errata, assumptions
+
+
+def _data_role(kind: str) -> Any:
+    def role(name: str, rawtext: str, text: str, lineno: int, inliner: Any,
+             options: dict | None = None, content: list | None = None) -> tuple[list, list]:
+        env = inliner.document.settings.env
+        key = text.strip()
+        errata, assumptions = _known_ids()
+        allowed = errata if kind == "erratum" else assumptions
+        if key not in allowed:
+            msg = inliner.reporter.error(
+                f"{{{kind}}}`{key}`: {key!r} is not an {kind} id; allowed: {', '.join(allowed)}",
+                line=lineno)
+            return [inliner.problematic(rawtext, rawtext, msg)], [msg]
+        label = erratum_label(key) if kind == "erratum" else assumption_label(key)
+        ref = addnodes.pending_xref(
+            rawtext, refdomain="std", reftype="ref", reftarget=label, refexplicit=True,
+            refwarn=True, refdoc=env.docname,
+        )
+        if kind == "erratum":
+            ref += nodes.inline(rawtext, key, classes=["fivebar-erratum"])
+        else:
+            ref += nodes.literal(rawtext, key, classes=["fivebar-assumption"])
+        for dep in __import__("fivebar.reporting", fromlist=["data_files"]).data_files():
+            env.note_dependency(str(dep))
+        return [ref], []
+
+    return role
+
+
+# --------------------------------------------------------------------------------------------
+# 5. The linkage figure of the front page
+# --------------------------------------------------------------------------------------------
+
+
+def linkage_svg(theta1_deg: float = 135.0, theta4_deg: float = 60.0) -> str:
+    """Figure 1 of the paper drawn by :func:`fivebar.plotting.draw_linkage`, as SVG text."""
+    import io
+
+    import matplotlib as mpl
+    from matplotlib.figure import Figure
+
+    import fivebar
+    from fivebar.plotting import draw_linkage, use_book_style
+
+    with mpl.rc_context():
+        use_book_style(inline=False)
+        mpl.rcParams.update({"axes.grid": False, "svg.hashsalt": "fivebar", "svg.fonttype": "path"})
+        params = fivebar.load_params()
+        fig = Figure(figsize=(6.5, 3.4))
+        ax = fig.add_subplot()
+        draw_linkage(ax, params, float(np.radians(theta1_deg)), float(np.radians(theta4_deg)),
+                     labels=True, masses=True)
+        ax.set_xlabel("$x$ (mm)")
+        ax.set_ylabel("$y$ (mm)")
+        buf = io.StringIO()
+        fig.savefig(buf, format="svg", metadata={"Date": None})
+    svg = buf.getvalue()
+    svg = svg[svg.index("<svg"):]  # inline: no XML declaration or doctype
+    # scale with the column: the viewBox keeps the aspect, CSS sets the width
+    svg = re.sub(r'<svg([^>]*?) width="[^"]*" height="[^"]*"', r'<svg\1', svg, count=1)
+    return svg.replace("<svg", '<svg class="fivebar-linkage" role="img" '
+                       'aria-label="The five-bar linkage of Figure 1"', 1)
+
+
+class LinkageFigure(SphinxDirective):
+    """``{linkage-figure}`` with optional ``:theta1:`` and ``:theta4:`` (deg); content is the caption."""
+
+    has_content = True
+    option_spec = {"theta1": directives.unchanged, "theta4": directives.unchanged}
+
+    def run(self) -> list[nodes.Node]:
+        angles = {}
+        for key, default in (("theta1", 135.0), ("theta4", 60.0)):
+            raw = self.options.get(key, default)
+            try:
+                angles[key] = float(raw)
+            except (TypeError, ValueError):
+                raise self.error(f"linkage-figure: :{key}: {raw!r} is not allowed: give an angle in degrees") from None
+        import fivebar.plotting as plotting
+
+        self.env.note_dependency(plotting.__file__)
+        try:
+            svg = linkage_svg(angles["theta1"], angles["theta4"])
+        except Exception as exc:
+            raise self.error(f"linkage-figure: {exc}") from exc
+        figure = nodes.figure(classes=["fivebar-linkage-figure"])
+        figure += nodes.raw("", svg, format="html")
+        if self.content:
+            caption, msgs = self.state.inline_text(" ".join(self.content), self.lineno)
+            figure += nodes.caption("", "", *caption)
+            figure += msgs
+        return [figure]
 
 
 #: Raw docstrings of properties and data, kept before napoleon rewrites them.
@@ -471,6 +649,43 @@ def _escape_bars(app: Sphinx, what: str, name: str, obj: Any, options: Any,
             parts = _QUOTED.split(line)
             lines[i] = "".join(p if k % 2 else _BARS.sub(r"\\|\1\\|", p)
                                for k, p in enumerate(parts))
+        if stripped.endswith("::"):
+            block_indent = indent
+
+
+_ERRATA_IDS: set[str] | None = None
+
+
+def _link_errata_in_docstring(app: Sphinx, what: str, name: str, obj: Any, options: Any,
+                              lines: list[str]) -> None:
+    # A docstring that names an erratum ("errata E26") links it to its row on the errata
+    # page, as the {erratum} role does in the chapters (prose only: not in literals, roles,
+    # math, code or other directive blocks).
+    global _ERRATA_IDS
+    if _ERRATA_IDS is None:
+        import fivebar.reporting as reporting
+
+        _ERRATA_IDS = set(reporting.errata_table()["id"])
+    block_indent: int | None = None
+    for i, line in enumerate(lines):
+        stripped = line.lstrip()
+        indent = len(line) - len(stripped)
+        if block_indent is not None:
+            if not stripped or indent > block_indent:
+                continue
+            block_indent = None
+        if stripped.startswith((">>>", "... ")):
+            continue
+        if stripped.startswith(".. "):
+            block_indent = indent
+            continue
+        if _MENTION.search(line):
+            parts = _QUOTED.split(line)
+            lines[i] = "".join(
+                p if k % 2 else _MENTION.sub(
+                    lambda m: (f":ref:`{m.group(1)} <{erratum_label(m.group(1))}>`"
+                               if m.group(1) in _ERRATA_IDS else m.group(1)), p)
+                for k, p in enumerate(parts))
         if stripped.endswith("::"):
             block_indent = indent
 
@@ -571,9 +786,16 @@ def setup(app: Sphinx) -> dict[str, Any]:
     app.connect("build-finished", _build_finished)
     app.connect("html-page-context", _html_page_context, priority=900)
     app.connect("autodoc-process-docstring", _escape_bars, priority=300)
+    app.connect("autodoc-process-docstring", _link_errata_in_docstring, priority=350)
     app.connect("autodoc-process-docstring", _keep_raw_doc, priority=400)
     app.connect("autodoc-process-docstring", _restore_raw_doc, priority=600)
     app.add_css_file("fivebar_book.css")
     app.add_directive("fivebar-table", FivebarTable)
     app.add_directive("equation-index", EquationIndex)
-    return {"version": __version__, "parallel_read_safe": True, "parallel_write_safe": True}
+    app.add_directive("linkage-figure", LinkageFigure)
+    app.add_role("erratum", _data_role("erratum"))
+    app.add_role("assumption", _data_role("assumption"))
+    # env_version: bump it when this extension changes what it writes into the documents, so
+    # that an incremental build reads every page again instead of keeping the old output.
+    return {"version": __version__, "env_version": 4, "parallel_read_safe": True,
+            "parallel_write_safe": True}

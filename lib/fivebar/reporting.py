@@ -29,11 +29,13 @@ from .params import DEFAULT_PARAMS_PATH, Params, load_params
 __all__ = [
     "ERRATA_PATH",
     "ERRATA_FIELDS",
+    "ERRATA_MATH_FIELDS",
     "ReportError",
     "errata_table",
     "assumptions_table",
     "format_value",
     "data_files",
+    "table",
 ]
 
 #: The errata file shipped with the project.
@@ -49,6 +51,13 @@ ERRATA_FIELDS = {
     "verified_by": "verified by",
 }
 
+#: Optional fields of an ``[[erratum]]``: the printed text and the reading with their formulas
+#: in LaTeX between ``$...$`` (what the book typesets) -> column of ``errata_table(math=True)``.
+ERRATA_MATH_FIELDS = {
+    "printed_tex": "printed (math)",
+    "read_as_tex": "read as (math)",
+}
+
 _ASSUMPTION_FIELDS = ("unit", "reason", "alternative")
 
 
@@ -61,7 +70,7 @@ def data_files() -> tuple[Path, Path]:
     return ERRATA_PATH, DEFAULT_PARAMS_PATH
 
 
-def errata_table(path: str | Path | None = None) -> pd.DataFrame:
+def errata_table(path: str | Path | None = None, math: bool = False) -> pd.DataFrame:
     """The paper's misprints, one row per ``[[erratum]]`` of the errata file.
 
     ``df = errata_table()``; ``df = errata_table("my_errata.toml")``
@@ -70,6 +79,10 @@ def errata_table(path: str | Path | None = None) -> pd.DataFrame:
     ----------
     path
         The errata file; ``None`` reads ``data/errata.toml``.
+    math
+        Add the columns ``printed (math)`` and ``read as (math)``: the optional fields
+        ``printed_tex`` and ``read_as_tex`` (formulas in LaTeX between ``$...$``), empty where
+        an entry has none.
 
     Returns
     -------
@@ -108,11 +121,21 @@ def errata_table(path: str | Path | None = None) -> pd.DataFrame:
                     "non-empty text"
                 )
             row[column] = value.strip()
+        for key, column in ERRATA_MATH_FIELDS.items():
+            value = entry.get(key, "")
+            if not isinstance(value, str) or (key in entry and not value.strip()):
+                raise ReportError(
+                    f"{label}: field {key!r} = {value!r} is not allowed: it must be "
+                    "non-empty text (LaTeX between $...$) or absent"
+                )
+            if math:
+                row[column] = value.strip()
         if row["id"] in seen:
             raise ReportError(f"{label}: id {row['id']!r} is used twice")
         seen.add(row["id"])
         rows.append(row)
-    return pd.DataFrame(rows, columns=list(ERRATA_FIELDS.values()))
+    columns = list(ERRATA_FIELDS.values()) + (list(ERRATA_MATH_FIELDS.values()) if math else [])
+    return pd.DataFrame(rows, columns=columns)
 
 
 def assumptions_table(params: Params | None = None, effects: bool = False) -> pd.DataFrame:
@@ -197,3 +220,45 @@ def format_value(value: Any) -> str:
             return str(int(value))
         return f"{value:.4g}"
     return str(value)
+
+
+def table(df: pd.DataFrame, digits: int = 4, caption: str | None = None) -> Any:
+    """A table for the book: no index column, numbers to ``digits`` significant digits.
+
+    ``table(df)`` as the last line of a cell shows ``df`` without its index (name the rows in
+    a column instead, with the unit in every numeric header, e.g. ``"L2 p-p (um)"``).
+    The HTML is the same on every run (the style's id is derived from the content), so a
+    strictly compared notebook reproduces it.
+
+    Parameters
+    ----------
+    df
+        The table.  A non-default index is kept as the first column(s).
+    digits
+        Significant digits of floating-point numbers (1 to 15); integers are shown whole.
+    caption
+        Optional caption above the table.
+
+    Returns
+    -------
+    pandas.io.formats.style.Styler
+
+    Raises
+    ------
+    ReportError
+        If ``digits`` is not an integer from 1 to 15.
+    """
+    import hashlib
+
+    if isinstance(digits, bool) or not isinstance(digits, int) or not 1 <= digits <= 15:
+        raise ReportError(f"digits = {digits!r} is not allowed: give an integer from 1 to 15")
+    default_index = df.index.equals(pd.RangeIndex(len(df))) and all(n is None for n in df.index.names)
+    if not default_index:
+        df = df.reset_index()
+    floats = [c for c in df.columns if pd.api.types.is_float_dtype(df[c])]
+    styler = df.style.hide(axis="index").format({c: f"{{:.{digits}g}}" for c in floats}, na_rep="–")
+    if caption:
+        styler = styler.set_caption(caption)
+    digest = hashlib.sha1(pd.util.hash_pandas_object(df, index=False).values.tobytes()
+                          + repr(list(df.columns)).encode()).hexdigest()[:10]
+    return styler.set_uuid(f"fivebar{digest}")
