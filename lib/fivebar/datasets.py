@@ -8,7 +8,7 @@ Four tables, each computed by the library (never copied from a notebook):
 * :func:`resonance_table`: the crank speeds at which the resonance conditions of section 3
   hold, from :func:`fivebar.resonance.resonance_speeds`;
 * :func:`sweep_table`: the steady-state midpoint amplitude over a range of crank speeds,
-  from :func:`fivebar.speed_sweep`.
+  from :func:`fivebar.sweep.speed_sweep`.
 
 :func:`write_datasets` writes them with a provenance line at the top of each file
 (``# fivebar <version> | parameters <file> sha256 <hash> | <how> | <title> | source <hash>``;
@@ -57,7 +57,7 @@ def figure6_curves(params: Params, steps_per_period: int = FIGURE6_STEPS) -> pd.
 
     Columns ``crank angle (deg)`` and ``<link> <direction> (um)`` for L2, L3 and the
     directions of :meth:`fivebar.steady.SteadyState.midpoint` (transverse, longitudinal,
-    chord).  The steady state is :func:`fivebar.steady_state` at ``steps_per_period``.
+    chord).  The steady state is :func:`fivebar.steady.steady_state` at ``steps_per_period``.
     """
     from .steady import steady_state
 
@@ -97,7 +97,7 @@ def resonance_table(params: Params) -> pd.DataFrame:
 def sweep_table(params: Params, speeds_rpm=SWEEP_SPEEDS_RPM) -> pd.DataFrame:
     """Steady-state peak-to-peak midpoint amplitudes of L2, L3 over crank speeds.
 
-    :func:`fivebar.speed_sweep` with its defaults (linear, with the motors, S = 100,
+    :func:`fivebar.sweep.speed_sweep` with its defaults (linear, with the motors, S = 100,
     generalised-alpha): the columns of :func:`fivebar.sweep.sweep_point`.
     """
     from .sweep import speed_sweep
