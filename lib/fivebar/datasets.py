@@ -100,9 +100,12 @@ def sweep_table(params: Params, speeds_rpm=SWEEP_SPEEDS_RPM) -> pd.DataFrame:
     :func:`fivebar.sweep.speed_sweep` with its defaults (linear, with the motors, S = 100,
     generalised-alpha): the columns of :func:`fivebar.sweep.sweep_point`.
     """
+    from concurrent.futures import ProcessPoolExecutor
+
     from .sweep import speed_sweep
 
-    return speed_sweep(params, speeds_rpm, progress=False, cache=False)
+    with ProcessPoolExecutor(max_workers=2) as pool:  # as chapter 07 does
+        return speed_sweep(params, speeds_rpm, executor=pool, progress=False, cache=False)
 
 
 @dataclass(frozen=True)
