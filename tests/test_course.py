@@ -108,3 +108,68 @@ def test_built_course_map_and_downloads():
         text = (BUILT / "book" / f"{ds.chapter}.html").read_text(encoding="utf-8")
         if "fivebar-downloads" in text:
             assert re.search(rf'href="[^"]*_downloads/[0-9a-f]+/{name}\.csv"', text), name
+
+
+# --- the directives in a small Sphinx build (in-process; the CSVs are stubbed) -----------------
+
+def _mini_book(tmp_path: Path, monkeypatch, with_anim: bool) -> tuple[Path, Path]:
+    import fivebar.datasets
+
+    src = tmp_path / "src"
+    (src / "book").mkdir(parents=True)
+    (src / "book" / "course.toml").write_text((ROOT / teaching.COURSE_FILE).read_text())
+    (src / "conf.py").write_text(
+        f"import sys\nsys.path.insert(0, {str(ROOT / 'book' / '_ext')!r})\n"
+        "extensions = ['myst_parser', 'fivebar_teaching']\nmyst_enable_extensions = ['colon_fence']\n"
+        "exclude_patterns = ['book/_generated']\n")
+    (src / "index.md").write_text("# Book\n\n```{toctree}\nbook/course\nbook/09_figure6\nbook/06_newmark\n```\n")
+    (src / "book" / "course.md").write_text("# Course map\n\n```{course-map} chapters\n```\n\n```{course-map} short\n```\n")
+    (src / "book" / "06_newmark.md").write_text("# Newmark\n\ntext\n")
+    (src / "book" / "09_figure6.md").write_text(
+        "# Figure 6\n\n```{learning-objectives}\n```\n\n```{data-downloads}\n```\n\n"
+        '<iframe class="fivebar-animation" src="_generated/anim/09_linkage.html"></iframe>\n')
+
+    def fake_write(outdir, *a, **k):
+        outdir = Path(outdir)
+        outdir.mkdir(parents=True, exist_ok=True)
+        for name in DATASETS:
+            (outdir / f"{name}.csv").write_text("# fivebar stub\na\n1\n")
+        return {name: 0.0 for name in DATASETS}
+
+    monkeypatch.setattr(fivebar.datasets, "write_datasets", fake_write)
+    if with_anim:
+        (src / "book" / "_generated" / "anim").mkdir(parents=True)
+        (src / "book" / "_generated" / "anim" / "09_linkage.html").write_text("<html>stub</html>")
+    return src, tmp_path / "out"
+
+
+def _build(src: Path, out: Path) -> None:
+    from sphinx.application import Sphinx
+    from sphinx.util.docutils import docutils_namespace
+
+    with docutils_namespace():  # each build registers its nodes afresh
+        app = Sphinx(str(src), str(src), str(out), str(out / ".doctrees"), "html", status=None,
+                     warning=None, warningiserror=True, freshenv=True)
+        app.build()
+
+
+def test_directives_render_in_a_sphinx_build(tmp_path, monkeypatch):
+    src, out = _mini_book(tmp_path, monkeypatch, with_anim=True)
+    _build(src, out)
+    page = html.unescape((out / "book" / "09_figure6.html").read_text()).replace("\u2019", "'")
+    course = teaching.load_course(src / teaching.COURSE_FILE)
+    for objective in teaching.chapter_entry(course, "book/09_figure6")["objectives"]:
+        assert objective in page
+    assert re.search(r'href="[^"]*_downloads/[0-9a-f]+/figure6_curves\.csv"', page)
+    assert (out / "book" / "_generated" / "anim" / "09_linkage.html").is_file()  # copied next to the page
+    cmap = html.unescape((out / "book" / "course.html").read_text())
+    assert 'href="06_newmark.html"' in cmap  # a chapter of the build is linked
+    assert "Multibody validation (Exudyn against the KED model) (planned)" in cmap  # one that is not, is not
+
+
+def test_a_missing_animation_fails_the_build(tmp_path, monkeypatch):
+    from sphinx.errors import ExtensionError
+
+    src, out = _mini_book(tmp_path, monkeypatch, with_anim=False)
+    with pytest.raises(ExtensionError, match="09_linkage.html"):
+        _build(src, out)
