@@ -44,9 +44,10 @@ book: venv
 	$(BIN)/jupyter-book build . --builder html -W -n --keep-going 2>&1 | tee _build/book.log; \
 	touch _build/html/.fivebar-build-ok
 
-## make book-clean: force a full re-execution of every notebook and a full rebuild
+## make book-clean: force a full re-execution of every notebook and a full rebuild (and
+## regenerate the CSV downloads and animation pages in book/_generated)
 book-clean: venv
-	rm -rf _build
+	rm -rf _build book/_generated
 	$(MAKE) book
 
 ## make execute: re-execute every notebook in place (after a change of results)
@@ -57,4 +58,4 @@ execute: venv
 	done
 
 clean:
-	rm -rf _build .pytest_cache
+	rm -rf _build .pytest_cache book/_generated

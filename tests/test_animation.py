@@ -1,0 +1,97 @@
+"""Animations (fivebar.animation): the frames show the computed motion; the page is offline."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import fivebar
+from fivebar import animation
+from fivebar.kinematics import crank_laws
+
+
+@pytest.fixture(scope="module")
+def params():
+    return fivebar.load_params()
+
+
+@pytest.fixture(scope="module")
+def steady(params):
+    return fivebar.steady_state(params)
+
+
+def test_nice_scale():
+    assert [animation.nice_scale(x) for x in (542.0, 199.9, 200.0, 7.0, 0.013)] == [500, 100, 200, 5, 0.01]
+    with pytest.raises(ValueError, match="x = -1"):
+        animation.nice_scale(-1)
+
+
+def test_linkage_frames_show_the_midpoint_deflection_times_the_scale(steady):
+    fr = animation.linkage_frames(steady, scale=300.0, frames=8)
+    S = len(steady.t) - 1
+    idx = np.round(np.arange(8) * S / 8).astype(int)
+    np.testing.assert_allclose(fr.crank_angle, steady.crank_angle[idx])
+    for link in ("L2", "L3"):
+        rig, dfm = fr.rigid[link], fr.deformed[link]
+        mid = rig.shape[1] // 2
+        e = rig[:, -1] - rig[:, 0]
+        e /= np.linalg.norm(e, axis=1, keepdims=True)
+        normal = np.stack([-e[:, 1], e[:, 0]], axis=1)
+        shown = np.einsum("ij,ij->i", dfm[:, mid] - rig[:, mid], normal) / 300.0  # mm
+        np.testing.assert_allclose(shown, steady.midpoint(link)[idx], rtol=1e-9, atol=1e-12)
+
+
+def test_default_scale_makes_the_deflection_visible_but_not_huge(steady, params):
+    fr = animation.linkage_frames(steady, frames=4)
+    shown = fr.scale * fr.peak  # mm on the drawing
+    assert 0.08 * 1e3 * params.L2 / 2.5 < shown <= 0.08 * 1e3 * params.L2 * (1 + 1e-9)
+    assert fr.scale == animation.nice_scale(fr.scale)
+
+
+def test_mode_frames_frequencies_and_normalisation(params):
+    fr = animation.mode_frames(params, n=2, frames=6)
+    for i in (0, 4):
+        th1, _, _, th4, _, _ = crank_laws(params, np.radians(fr.crank_angle[i]) / params.crank_speed)
+        np.testing.assert_allclose(fr.frequencies[i], fivebar.natural_frequencies(params, float(th1), float(th4), n=2),
+                                   rtol=1e-10)
+    for shape in fr.shapes:
+        disp = np.stack([shape[L] - fr.rigid[L] for L in fr.rigid], axis=1)  # (F, links, points, 2)
+        peak = np.linalg.norm(disp, axis=-1).max(axis=(1, 2))
+        np.testing.assert_allclose(peak, fr.amplitude, rtol=1e-9)
+        flat = disp.reshape(len(peak), -1)
+        assert np.all(np.einsum("ij,ij->i", flat[1:], flat[:-1]) > 0)  # the sign follows the cycle
+
+
+@pytest.mark.parametrize("bad", [1, 2.5, True, 1000])
+def test_bad_frame_counts_are_refused(steady, bad):
+    with pytest.raises(ValueError, match="frames = "):
+        animation.linkage_frames(steady, frames=bad)
+
+
+def test_page_is_offline_small_and_has_controls(steady, tmp_path):
+    anim = animation.animate_linkage(steady, frames=4, dpi=40)
+    page = anim.to_html()
+    assert len(anim.frames) == 4 and all(f.startswith(b"\x89PNG") for f in anim.frames)
+    assert page.count("data:image/png;base64,") == 4
+    assert not re.search(r"(src|href)\s*=\s*[\"']?(https?:)?//", page), "loads from another host"
+    assert "http" not in page
+    for control in ('id="play"', 'id="prev"', 'id="next"', 'type="range"'):
+        assert control in page
+    assert anim.nbytes < 3e6
+
+
+def test_show_displays_a_fixed_snippet_and_writes_the_page(steady, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    a = animation.animate_linkage(steady, frames=3, dpi=40)
+    b = animation.animate_linkage(steady, scale=50.0, frames=3, dpi=40)
+    out_a = animation.show(a, "anim/x.html").data
+    page_a = (tmp_path / "anim" / "x.html").read_text()
+    out_b = animation.show(b, "anim/x.html").data
+    assert (tmp_path / "anim" / "x.html").read_text() != page_a  # the file follows the animation
+    assert out_a.replace("500", "50") == out_b.replace("500", "50")  # the snippet only names it
+    assert 'src="anim/x.html"' in out_a
+    for bad in ("/tmp/x.html", "../x.html", "anim/x.gif"):
+        with pytest.raises(ValueError, match="path = "):
+            animation.show(a, bad)

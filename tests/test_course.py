@@ -1,0 +1,175 @@
+"""The course map (book/course.toml) covers the book's table of contents, and its directives and
+the download helper of book/_ext/fivebar_teaching.py work."""
+
+from __future__ import annotations
+
+import html
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "book" / "_ext"))
+
+import fivebar_teaching as teaching  # noqa: E402
+
+from fivebar.datasets import DATASETS  # noqa: E402
+
+
+def toc_files() -> list[str]:
+    """Every ``file:`` of _toc.yml except the root (read as text: no yaml needed)."""
+    text = (ROOT / "_toc.yml").read_text()
+    return re.findall(r"^\s*-\s*file:\s*(\S+)", text, flags=re.M)
+
+
+@pytest.fixture(scope="module")
+def course():
+    return teaching.load_course(ROOT / teaching.COURSE_FILE)
+
+
+def test_every_toc_chapter_has_an_entry(course):
+    missing = [f for f in toc_files() if f != "book/course" and teaching.chapter_entry(course, f) is None]
+    assert not missing, f"chapters of _toc.yml without a [[chapter]] in course.toml: {missing}"
+
+
+def test_every_entry_is_in_the_toc_unless_planned(course):
+    toc = set(toc_files())
+    stale = [ch["file"] for ch in course["chapter"]
+             if not ch.get("planned") and not ({ch["file"], *ch.get("formerly", [])} & toc)]
+    assert not stale, f"course.toml entries whose chapter is not in _toc.yml: {stale}"
+
+
+def test_entries_are_complete(course):
+    for ch in course["chapter"]:
+        if ch["role"] != "reference":
+            assert 3 <= len(ch["objectives"]) <= 5, ch["file"]
+            assert ch["reading"] > 0 and ch["working"] > 0, ch["file"]
+    roles = {ch["file"]: ch["role"] for ch in course["chapter"]}
+    assert roles["book/04_electromagnetics"] == "optional"  # 0 % effect on the linkage
+    assert {"core"} <= set(roles.values())
+
+
+def test_paths_cover_the_core_chapters(course):
+    core = {ch["file"] for ch in course["chapter"] if ch["role"] == "core"}
+    for name in ("semester", "short"):
+        steps = course["path"][name]["steps"]
+        seen = {f for s in steps for f in s["chapters"]}
+        if name == "semester":
+            assert core <= seen, core - seen
+            assert len(steps) >= 10
+        else:
+            assert core - {"book/02_elements"} <= seen, core - seen  # the short course skims 02
+
+
+def test_bad_course_files_are_refused(tmp_path):
+    good = (ROOT / teaching.COURSE_FILE).read_text()
+    cases = {
+        "objectives": re.sub(r"objectives = \[.*?\n\]", 'objectives = ["only one"]', good, count=1, flags=re.S),
+        "role = 'elective'": good.replace('role = "optional"', 'role = "elective"', 1),
+        "unknown chapter": good.replace('chapters = ["book/02_elements"]', 'chapters = ["book/02_element"]', 1),
+        "reading": good.replace("reading = 30", 'reading = "half an hour"', 1),
+    }
+    for expect, text in cases.items():
+        p = tmp_path / "course.toml"
+        p.write_text(text)
+        with pytest.raises(ValueError) as err:
+            teaching.load_course(p)
+        assert any(w in str(err.value) for w in expect.split()), (expect, str(err.value))
+
+
+def test_download_helper_links_every_dataset_from_its_chapter():
+    toc = toc_files()
+    linked = []
+    for f in toc:
+        linked += teaching.downloads_for(f)
+    assert sorted(linked) == sorted(DATASETS)
+    assert teaching.downloads_for("book/09_figure6") == ["figure6_curves"]
+    assert teaching.downloads_for("book/01_mechanism") == []
+
+
+BUILT = ROOT / "_build" / "html"
+
+
+@pytest.mark.skipif(not (BUILT / ".fivebar-build-ok").is_file(), reason="the book is not built (make book)")
+def test_built_course_map_and_downloads():
+    page = html.unescape((BUILT / "book" / "course.html").read_text(encoding="utf-8")).replace("\u2019", "'")
+    course = teaching.load_course(ROOT / teaching.COURSE_FILE)
+    for ch in course["chapter"]:
+        assert ch["title"] in page
+    assert "Week 13" in page and "Day 3 afternoon" in page
+    # every generated CSV is there to be linked, with its provenance line
+    for name in DATASETS:
+        f = ROOT / teaching.GENERATED / "data" / f"{name}.csv"
+        assert f.read_text(encoding="utf-8").startswith("# fivebar ")
+    # chapters that already carry {data-downloads} link their files (phase two adds the rest)
+    for name, ds in DATASETS.items():
+        text = (BUILT / "book" / f"{ds.chapter}.html").read_text(encoding="utf-8")
+        if "fivebar-downloads" in text:
+            assert re.search(rf'href="[^"]*_downloads/[0-9a-f]+/{name}\.csv"', text), name
+
+
+# --- the directives in a small Sphinx build (in-process; the CSVs are stubbed) -----------------
+
+def _mini_book(tmp_path: Path, monkeypatch, with_anim: bool) -> tuple[Path, Path]:
+    import fivebar.datasets
+
+    src = tmp_path / "src"
+    (src / "book").mkdir(parents=True)
+    (src / "book" / "course.toml").write_text((ROOT / teaching.COURSE_FILE).read_text())
+    (src / "conf.py").write_text(
+        f"import sys\nsys.path.insert(0, {str(ROOT / 'book' / '_ext')!r})\n"
+        "extensions = ['myst_parser', 'fivebar_teaching']\nmyst_enable_extensions = ['colon_fence']\n"
+        "exclude_patterns = ['book/_generated']\n")
+    (src / "index.md").write_text("# Book\n\n```{toctree}\nbook/course\nbook/09_figure6\nbook/06_newmark\n```\n")
+    (src / "book" / "course.md").write_text("# Course map\n\n```{course-map} chapters\n```\n\n```{course-map} short\n```\n")
+    (src / "book" / "06_newmark.md").write_text("# Newmark\n\ntext\n")
+    (src / "book" / "09_figure6.md").write_text(
+        "# Figure 6\n\n```{learning-objectives}\n```\n\n```{data-downloads}\n```\n\n"
+        '<iframe class="fivebar-animation" src="_generated/anim/09_linkage.html"></iframe>\n')
+
+    def fake_write(outdir, *a, **k):
+        outdir = Path(outdir)
+        outdir.mkdir(parents=True, exist_ok=True)
+        for name in DATASETS:
+            (outdir / f"{name}.csv").write_text("# fivebar stub\na\n1\n")
+        return {name: 0.0 for name in DATASETS}
+
+    monkeypatch.setattr(fivebar.datasets, "write_datasets", fake_write)
+    if with_anim:
+        (src / "book" / "_generated" / "anim").mkdir(parents=True)
+        (src / "book" / "_generated" / "anim" / "09_linkage.html").write_text("<html>stub</html>")
+    return src, tmp_path / "out"
+
+
+def _build(src: Path, out: Path) -> None:
+    from sphinx.application import Sphinx
+    from sphinx.util.docutils import docutils_namespace
+
+    with docutils_namespace():  # each build registers its nodes afresh
+        app = Sphinx(str(src), str(src), str(out), str(out / ".doctrees"), "html", status=None,
+                     warning=None, warningiserror=True, freshenv=True)
+        app.build()
+
+
+def test_directives_render_in_a_sphinx_build(tmp_path, monkeypatch):
+    src, out = _mini_book(tmp_path, monkeypatch, with_anim=True)
+    _build(src, out)
+    page = html.unescape((out / "book" / "09_figure6.html").read_text()).replace("\u2019", "'")
+    course = teaching.load_course(src / teaching.COURSE_FILE)
+    for objective in teaching.chapter_entry(course, "book/09_figure6")["objectives"]:
+        assert objective in page
+    assert re.search(r'href="[^"]*_downloads/[0-9a-f]+/figure6_curves\.csv"', page)
+    assert (out / "book" / "_generated" / "anim" / "09_linkage.html").is_file()  # copied next to the page
+    cmap = html.unescape((out / "book" / "course.html").read_text())
+    assert 'href="06_newmark.html"' in cmap  # a chapter of the build is linked
+    assert "Multibody validation (Exudyn against the KED model) (planned)" in cmap  # one that is not, is not
+
+
+def test_a_missing_animation_fails_the_build(tmp_path, monkeypatch):
+    from sphinx.errors import ExtensionError
+
+    src, out = _mini_book(tmp_path, monkeypatch, with_anim=False)
+    with pytest.raises(ExtensionError, match="09_linkage.html"):
+        _build(src, out)
