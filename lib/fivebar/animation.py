@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from .errors import InputError
 from .kinematics import LINKS, crank_laws, positions
 from .params import Params
 
@@ -45,7 +46,7 @@ _POINTS = 21
 def nice_scale(x: float) -> float:
     """The largest number 1, 2 or 5 times a power of ten not above ``x`` (> 0)."""
     if not (x > 0 and math.isfinite(x)):
-        raise ValueError(f"x = {x!r} is not allowed: give a positive finite number")
+        raise InputError(f"x = {x!r} is not allowed: give a positive finite number")
     e = math.floor(math.log10(x))
     for m in (5, 2, 1):
         if m * 10.0**e <= x * (1 + 1e-12):
@@ -55,7 +56,7 @@ def nice_scale(x: float) -> float:
 
 def _check_frames(frames: int) -> int:
     if isinstance(frames, bool) or int(frames) != frames or not 2 <= frames <= 400:
-        raise ValueError(f"frames = {frames!r} is not allowed: give an integer from 2 to 400")
+        raise InputError(f"frames = {frames!r} is not allowed: give an integer from 2 to 400")
     return int(frames)
 
 
@@ -110,7 +111,7 @@ def linkage_frames(steady, scale: float | None = None, frames: int = 48, points:
     """
     F = _check_frames(frames)
     if scale is not None and not (np.isfinite(scale) and scale > 0):
-        raise ValueError(f"scale = {scale!r} is not allowed: give a positive magnification or None")
+        raise InputError(f"scale = {scale!r} is not allowed: give a positive magnification or None")
     dyn = steady.dynamics
     S = len(steady.t) - 1
     idx = np.round(np.arange(F) * S / F).astype(int)
@@ -156,7 +157,7 @@ def mode_frames(params: Params, n: int = 3, frames: int = 36, points: int = _POI
 
     F = _check_frames(frames)
     if isinstance(n, bool) or int(n) != n or not 1 <= n <= 6:
-        raise ValueError(f"n = {n!r} is not allowed: give an integer number of modes from 1 to 6")
+        raise InputError(f"n = {n!r} is not allowed: give an integer number of modes from 1 to 6")
     n = int(n)
     phi = np.arange(F) * 2 * np.pi / F
     th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed)
@@ -389,7 +390,7 @@ def show(anim: Animation, path: str | Path, width: int | None = None):
 
     path = Path(path)
     if path.is_absolute() or ".." in path.parts or path.suffix != ".html":
-        raise ValueError(f"path = {str(path)!r} is not allowed: give a relative path ending in .html "
+        raise InputError(f"path = {str(path)!r} is not allowed: give a relative path ending in .html "
                          "below the notebook's folder (e.g. 'anim/linkage.html')")
     anim.save(path)
     w = anim.width if width is None else int(width)

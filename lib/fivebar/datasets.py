@@ -5,7 +5,7 @@ Four tables, each computed by the library (never copied from a notebook):
 * :func:`figure6_curves`: the midpoint displacements of L2 and L3 over one steady period
   (Figure 6: transverse, longitudinal and chord deflection, µm, against the crank angle);
 * :func:`frequencies_table`: the lowest natural frequencies along the cycle (Hz);
-* :func:`resonance_table`: the crank speeds at which the resonance conditions of section 3
+* :func:`resonance_speeds_table`: the crank speeds at which the resonance conditions of section 3
   hold, from :func:`fivebar.resonance.resonance_speeds`;
 * :func:`sweep_table`: the steady-state midpoint amplitude over a range of crank speeds,
   from :func:`fivebar.sweep.speed_sweep`.
@@ -27,6 +27,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
+from .errors import InputError
 from .kinematics import crank_laws
 from .modal import frequencies_along_cycle
 from .params import DEFAULT_PARAMS_PATH, Params, load_params
@@ -36,7 +37,7 @@ __all__ = [
     "Dataset",
     "figure6_curves",
     "frequencies_table",
-    "resonance_table",
+    "resonance_speeds_table",
     "sweep_table",
     "source_hash",
     "write_datasets",
@@ -83,7 +84,7 @@ def frequencies_table(params: Params, angles_deg=FREQUENCY_ANGLES_DEG, n: int = 
     return pd.DataFrame(out)
 
 
-def resonance_table(params: Params) -> pd.DataFrame:
+def resonance_speeds_table(params: Params) -> pd.DataFrame:
     """Crank speeds (r/min) at which the conditions of section 3 hold exactly.
 
     :func:`fivebar.resonance.resonance_speeds` with its defaults (the paper's mean frequencies
@@ -131,8 +132,8 @@ DATASETS: dict[str, Dataset] = {
                 "05_modes", frequencies_table,
                 "fivebar.datasets.frequencies_table(params): frequencies_along_cycle(params, 0..360 deg, n=6)"),
         Dataset("resonance_speeds", "Crank speeds at which the resonance conditions of section 3 hold",
-                "07_excitation", resonance_table,
-                "fivebar.datasets.resonance_table(params): resonance_speeds(params)"),
+                "07_excitation", resonance_speeds_table,
+                "fivebar.datasets.resonance_speeds_table(params): resonance_speeds(params)"),
         Dataset("speed_sweep", "Steady-state midpoint amplitude of L2, L3 over 600-3300 r/min",
                 "07_excitation", sweep_table,
                 "fivebar.datasets.sweep_table(params): speed_sweep(params, linspace(600, 3300, 120))"),
@@ -188,7 +189,7 @@ def write_datasets(
     names = list(DATASETS) if names is None else list(names)
     bad = [n for n in names if n not in DATASETS]
     if bad:
-        raise ValueError(f"names = {bad!r} are not datasets: use some of {list(DATASETS)}")
+        raise InputError(f"names = {bad!r} are not datasets: use some of {list(DATASETS)}")
     digest = source_hash(params_path)
     outdir.mkdir(parents=True, exist_ok=True)
     params = None
@@ -217,5 +218,5 @@ def read_dataset(path: str | Path) -> tuple[str, pd.DataFrame]:
     with open(path, encoding="utf-8") as fh:
         first = fh.readline().rstrip("\n")
     if not first.startswith("# fivebar "):
-        raise ValueError(f"{path} has no provenance line (expected '# fivebar ...' first)")
+        raise InputError(f"{path} has no provenance line (expected '# fivebar ...' first)")
     return first, pd.read_csv(path, comment="#")

@@ -200,10 +200,10 @@ def figsize(rows: int = 1, *, aspect: float = 0.55, width: float = COLUMN_WIDTH_
         If ``rows`` is not a positive integer, or ``aspect`` or ``width`` is not positive.
     """
     if isinstance(rows, bool) or not isinstance(rows, (int, np.integer)) or rows < 1:
-        raise ValueError(f"rows = {rows!r} is not allowed: give the number of stacked panels, an integer >= 1")
+        raise InputError(f"rows = {rows!r} is not allowed: give the number of stacked panels, an integer >= 1")
     for name, value in (("aspect", aspect), ("width", width)):
         if not (isinstance(value, (int, float, np.floating)) and np.isfinite(value) and value > 0):
-            raise ValueError(f"{name} = {value!r} is not allowed: give a positive number")
+            raise InputError(f"{name} = {value!r} is not allowed: give a positive number")
     return (float(width), float(width * aspect * rows))
 
 
@@ -224,7 +224,7 @@ def legend_outside(ax: Axes, where: str = "right", **kwargs: Any) -> Any:
         place = {"loc": "upper center", "bbox_to_anchor": (0.5, -0.18), "borderaxespad": 0.0}
         kwargs.setdefault("ncols", 2)
     else:
-        raise ValueError(f"where = {where!r} is not allowed: use 'right' or 'below'")
+        raise InputError(f"where = {where!r} is not allowed: use 'right' or 'below'")
     return ax.legend(**{**place, **kwargs})
 
 
