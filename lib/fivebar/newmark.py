@@ -540,6 +540,8 @@ class PeriodicStepData:
         self.t0, self.period, self.steps, self.n = float(t0), float(period), int(S), int(n)
         self.dt = self.period / self.steps
         self._lu: dict[tuple[float, float, float, float], list[Any]] = {}
+        self._klu: dict[tuple[float, float, float, float], Any] = {}
+        self._kernel_arrays: tuple[Array, Array, Array, Array] | None = None
 
     @classmethod
     def from_system(cls, system: SecondOrderSystem, t0: float, period: float,
@@ -554,6 +556,22 @@ class PeriodicStepData:
             np.array([m[2] for m in mats]),
             np.array([system.force(float(t)) for t in ts]), t0, period,
         )
+
+    def kernel_arrays(self) -> tuple[Array, Array, Array, Array]:
+        """``M, C, K, F`` as contiguous arrays for the compiled loop; an array that is the same
+        at every step is given once (leading dimension 1)."""
+        if self._kernel_arrays is None:
+            self._kernel_arrays = tuple(
+                np.ascontiguousarray(X[:1] if X.strides[0] == 0 else X, dtype=float)
+                for X in (self.M, self.C, self.K, self.F))
+        return self._kernel_arrays
+
+    def kernel_lu_cache(self, key: tuple[float, float, float, float]) -> tuple[Any, Any, Any]:
+        """The compiled loop's per-step LU cache of the linear tangent, ``(LU, piv, filled)``,
+        for ``key = (cM, cC, cK, alpha_f)`` (see :meth:`lu`); filled lazily by the loop."""
+        if key not in self._klu:
+            self._klu[key] = _new_lu_cache(self.steps, self.n)
+        return self._klu[key]
 
     def lu(self, k: int, cM: float, cC: float, cK: float, alpha_f: float = 0.0) -> Any:
         """Cached LU of the linear tangent of the step ending at point k.
@@ -889,7 +907,7 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
             Pu = np.hstack([np.eye(n), np.zeros((n, 2 * n))])
             Pv = np.hstack([np.zeros((n, n)), np.eye(n), np.zeros((n, n))])
             Pa = np.hstack([np.zeros((n, 2 * n)), np.eye(n)])
-        Phi = (Pu, Pv, Pa)
+        Phi = [Pu, Pv, Pa]
     prev = (M0, C0, K0, Kt0)  # matrices at t_n (for the alpha terms)
 
     time_invariant = bool(getattr(system, "time_invariant", False)) and sd is None
@@ -906,7 +924,53 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
             return lu_const
         return _factor(cM * M + cC * C + cK * K, t0 + j * dt)
 
-    # --- time loop ---------------------------------------------------------------------------
+    # --- the compiled loop, where it serves ------------------------------------------------
+    elems = None
+    if not linear and sd is not None:
+        get = getattr(system, "nonlinear_elements", None)
+        elems = get(sd) if callable(get) else None
+    if (_USE_KERNELS and (sd is not None or time_invariant) and (linear or elems is not None)
+            and _kernels() is not None):
+        if sd is not None:
+            Ms, Cs, Ks, Fs = sd.kernel_arrays()
+            af_key = 0.0 if M_const else af
+            cache = sd.kernel_lu_cache((cM, cC, cK, af_key))
+        else:
+            Ms, Cs, Ks = (np.ascontiguousarray(X)[None] for X in (M0, C0, K0))
+            Fs = np.empty((nsteps + 1, n))
+            Fs[0] = F0
+            for j in range(1, nsteps + 1):
+                Fs[j] = data(j)[3]
+            cache = _new_lu_cache(1, n)
+        u, v, a = u.copy(), v.copy(), a.copy()
+        _march_compiled(Ms, Cs, Ks, Fs, k0, M_const, u, v, a,
+                        gn if not newmark else np.zeros(n), nsteps, t0, dt, g, b, am, af,
+                        elems, Kt0, rtol, xtol, atol, max_iter, newton == "full", cache, Phi,
+                        store == "all", T, U, V, A, iters)
+        if store == "last":
+            u, v, a = U[1], V[1], A[1]
+    else:
+        u, v, a, Phi = _march_python(
+            nsteps, t0, dt, data, u, v, a, gn if not newmark else None, Phi, prev, nl, linear,
+            newmark, M_const, linear_lu, g, bdt2, am, af, cM, cC, cK, c_up, c_vp, rtol, xtol,
+            atol, max_iter, newton, store, T, U, V, A, iters)
+    if store == "last":
+        T[1], U[1], V[1], A[1] = t0 + nsteps * dt, u, v, a
+
+    mono = None
+    state = None
+    if Phi is not None:
+        state = str(sensitivity)
+        mono = np.vstack(Phi[:2]) if sensitivity == "uv" else np.vstack(Phi)
+    return NewmarkResult(t=T, u=U, v=V, a=A, iterations=iters, scheme=scheme, monodromy=mono,
+                         state=state)
+
+
+def _march_python(nsteps, t0, dt, data, u, v, a, gn, Phi, prev, nl, linear, newmark, M_const,
+                  linear_lu, g, bdt2, am, af, cM, cC, cK, c_up, c_vp, rtol, xtol, atol, max_iter,
+                  newton, store, T, U, V, A, iters):
+    """The time loop in Python: for systems the compiled kernels cannot serve (Python callbacks
+    of a generic :class:`SecondOrderSystem`, time-varying systems without step data)."""
     for j in range(1, nsteps + 1):
         t = t0 + j * dt
         M, C, K, F = data(j)
@@ -994,13 +1058,72 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
         u, v, a = u1, v1, a1
         if store == "all":
             T[j], U[j], V[j], A[j] = t, u, v, a
-    if store == "last":
-        T[1], U[1], V[1], A[1] = t0 + nsteps * dt, u, v, a
+    return u, v, a, Phi
 
-    mono = None
-    state = None
+
+#: Use the compiled kernels where they serve (a switch for benchmarks and comparison tests).
+_USE_KERNELS = True
+_KERNELS: Any = None
+
+
+def _kernels() -> Any:
+    """The compiled kernels module (imported on first use: numba is heavy), or None if numba
+    is not installed."""
+    global _KERNELS
+    if _KERNELS is None:
+        try:
+            from . import _kernels as k
+        except ImportError:  # pragma: no cover - numba is a pinned dependency
+            k = False
+        _KERNELS = k
+    return _KERNELS or None
+
+
+def _new_lu_cache(S: int, n: int) -> tuple[Array, NDArray[np.int64], NDArray[np.uint8]]:
+    return np.zeros((S, n, n)), np.zeros((S, n), dtype=np.int64), np.zeros(S, dtype=np.uint8)
+
+
+def _march_compiled(Ms, Cs, Ks, Fs, k0, M_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af,
+                    elems, Kt0, rtol, xtol, atol, max_iter, full, cache, Phi, store_all, T, U, V,
+                    A, iters) -> None:
+    """Run :func:`fivebar._kernels.march` and raise what the Python loop would raise."""
+    kern = _kernels()
+    n = u.size
+    nonlin = elems is not None
+    if nonlin:
+        Ge, ae, wE, idx = elems
+        Kt0 = np.ascontiguousarray(Kt0, dtype=float)
+    else:
+        Ge, ae, wE, idx = _NO_ELEMENTS
+        Kt0 = np.zeros((n, n))
     if Phi is not None:
-        state = str(sensitivity)
-        mono = np.vstack(Phi[:2]) if sensitivity == "uv" else np.vstack(Phi)
-    return NewmarkResult(t=T, u=U, v=V, a=A, iterations=iters, scheme=scheme, monodromy=mono,
-                         state=state)
+        Pu, Pv, Pa = (np.ascontiguousarray(P, dtype=float) for P in Phi)
+        Phi[:] = [Pu, Pv, Pa]
+    else:
+        Pu = Pv = Pa = np.zeros((n, 1))
+    info = np.zeros(7)
+    status = kern.march(Ms, Cs, Ks, Fs, int(k0), bool(M_const), u, v, a, gn, int(nsteps),
+                        float(t0), float(dt), float(g), float(b), float(am), float(af), nonlin,
+                        Ge, ae, wE, idx, Kt0, float(rtol), float(xtol), float(atol),
+                        int(max_iter), bool(full), cache[0], cache[1], cache[2],
+                        Phi is not None, Pu, Pv, Pa, bool(store_all), T, U, V, A, iters, info)
+    if status == kern.OK:
+        return
+    j, t, rn, k_it, dmin, dmax, ref = info
+    j, k_it = int(j), int(k_it)
+    if status == kern.NOT_FINITE:
+        raise NewtonConvergenceError(
+            f"Newton-Raphson diverged in step {j} at t = {t:.9g} s: residual norm {rn} "
+            f"(not finite) after {k_it} iterations", t, rn, k_it)
+    if status == kern.NO_CONVERGENCE:
+        raise NewtonConvergenceError(
+            f"Newton-Raphson did not converge in step {j} at t = {t:.9g} s: residual "
+            f"norm {rn:.3e} (tolerance {rtol:.1e} x {ref:.3e} + {atol:.1e}) after "
+            f"{k_it} iterations (max_iter={max_iter})", t, rn, k_it)
+    raise NewtonConvergenceError(
+        f"the effective stiffness (tangent) at t = {t:.9g} s is singular or not finite "
+        f"(smallest/largest pivot {dmin:.3e}/{dmax:.3e})", t, math.nan, 0)
+
+
+_NO_ELEMENTS = (np.zeros((1, 1, 1, 8)), np.zeros((1, 1, 8)), np.zeros((1, 1)),
+                np.zeros((1, 8), dtype=np.int64))
