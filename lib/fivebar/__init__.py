@@ -8,17 +8,41 @@ controllable close-chain linkage mechanism system*, Mathematical Problems in Eng
 The facade below is what the chapters use; the modules hold the rest.
 """
 
-from .control import linear_model
-from .elements import beam_element, motor_element
-from .kinematics import GeometryError, positions
-from .excitation import excitation_frequencies, load_expansion
-from .modal import natural_frequencies
-from .multiscale import MultipleScalesResponse, multiple_scales, multiple_scales_newmark
-from .newmark import GeneralizedAlpha, HHT, Newmark, NewtonConvergenceError, UnstableParametersError, integrate
-from .params import DEFAULT_PARAMS_PATH, Motor, ParameterError, Params, load_params
-from .resonance import campbell_diagram, resonance_table
-from .steady import SteadyState, SteadyStateError, steady_state
-from .sweep import speed_sweep
+# The facade is lazy (PEP 562): ``import fivebar`` loads no heavy module (scipy submodules,
+# matplotlib, pandas, control, numba); a name is imported from its module on first use.
+_FACADE = {
+    "linear_model": "control",
+    "beam_element": "elements", "motor_element": "elements",
+    "GeometryError": "kinematics", "positions": "kinematics",
+    "excitation_frequencies": "excitation", "load_expansion": "excitation",
+    "natural_frequencies": "modal",
+    "MultipleScalesResponse": "multiscale", "multiple_scales": "multiscale",
+    "multiple_scales_newmark": "multiscale",
+    "GeneralizedAlpha": "newmark", "HHT": "newmark", "Newmark": "newmark",
+    "NewtonConvergenceError": "newmark", "UnstableParametersError": "newmark",
+    "integrate": "newmark",
+    "DEFAULT_PARAMS_PATH": "params", "Motor": "params", "ParameterError": "params",
+    "Params": "params", "load_params": "params",
+    "campbell_diagram": "resonance", "resonance_table": "resonance",
+    "SteadyState": "steady", "SteadyStateError": "steady", "steady_state": "steady",
+    "speed_sweep": "sweep",
+}
+
+
+def __getattr__(name: str):
+    module = _FACADE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'fivebar' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_FACADE))
+
 
 __all__ = [
     "DEFAULT_PARAMS_PATH",

@@ -128,7 +128,6 @@ from typing import Any, Literal, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg.lapack import dgetrf, dgetrs
 
 try:  # optional: limit BLAS threads inside the time loop (see ``integrate(blas_threads=...)``)
     from threadpoolctl import ThreadpoolController
@@ -588,6 +587,8 @@ class PeriodicStepData:
 
 def _factor(S: Array, t: float) -> tuple[Array, NDArray[np.int32]]:
     """LU factorisation by LAPACK getrf (scipy's lu_factor wrapper costs ~10 us per call)."""
+    from scipy.linalg.lapack import dgetrf  # here: scipy.linalg takes ~0.3 s to import
+
     lu, piv, info = dgetrf(S, overwrite_a=True)
     d = np.abs(lu.diagonal())
     dmin, dmax = d.min(), d.max()
@@ -614,6 +615,8 @@ def _blas_threads(k: int | None) -> contextlib.AbstractContextManager[Any]:
 
 def _solve(lu: tuple[Array, NDArray[np.int32]], b: Array) -> Array:
     """Solve with a factorisation from :func:`_factor` (LAPACK getrs)."""
+    from scipy.linalg.lapack import dgetrs
+
     x, info = dgetrs(lu[0], lu[1], b)
     return x
 
