@@ -30,6 +30,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import itertools  # noqa: E402
 import json  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
@@ -91,35 +92,41 @@ def step_costs(repeats: int) -> dict:
 
 def steady_costs(repeats: int) -> dict:
     from fivebar import load_params, steady_state
+    from fivebar.newmark import GeneralizedAlpha
 
     p = load_params()
     out: dict = {}
-    for rpm in (60.0, 300.0, 600.0):
-        for nonlinear in (False, True):
-            key = f"{'nonlinear' if nonlinear else 'linear'}_{rpm:g}rpm"
-            row = {}
-            for path in ("compiled", "python"):
-                if not _set_kernels(path == "compiled"):
-                    continue
-                try:
-                    steady_state(p, crank_speed_rpm=rpm, nonlinear=nonlinear)
-                    row[path] = 1e3 * _median_time(
-                        lambda: steady_state(p, crank_speed_rpm=rpm, nonlinear=nonlinear),
-                        max(3, repeats // 2))
-                except Exception as exc:  # noqa: BLE001 - reported, not hidden
-                    row[path + "_error"] = f"{type(exc).__name__}: {str(exc)[:200]}"
-            if "python" in row and "compiled" in row:
-                row["speedup"] = row["python"] / row["compiled"]
-            out[key] = row
-            _set_kernels(True)
+    # "default": steady_state(params, crank_speed_rpm=rpm, nonlinear=...) as it stands;
+    # "motors_off_galpha": the setting of issue 10's table (motors off, GeneralizedAlpha(0.8))
+    settings = {"default": {}, "motors_off_galpha": dict(motors=False,
+                                                         scheme=GeneralizedAlpha(0.8))}
+    for rpm, nonlinear, (sname, kw) in itertools.product((60.0, 300.0, 600.0), (False, True),
+                                                         settings.items()):
+        key = f"{'nonlinear' if nonlinear else 'linear'}_{rpm:g}rpm_{sname}"
+        row = {}
+        for path in ("compiled", "python"):
+            if not _set_kernels(path == "compiled"):
+                continue
+            try:
+                steady_state(p, crank_speed_rpm=rpm, nonlinear=nonlinear, **kw)
+                row[path] = 1e3 * _median_time(
+                    lambda: steady_state(p, crank_speed_rpm=rpm, nonlinear=nonlinear, **kw),
+                    max(3, repeats // 2))
+            except Exception as exc:  # noqa: BLE001 - reported, not hidden
+                row[path + "_error"] = f"{type(exc).__name__}: {str(exc)[:200]}"
+        if "python" in row and "compiled" in row:
+            row["speedup"] = row["python"] / row["compiled"]
+        out[key] = row
+        _set_kernels(True)
     return out
 
 
-def import_time(repeats: int) -> dict:
-    code = "import time; t = time.perf_counter(); import fivebar; print(time.perf_counter() - t)"
+def import_time(repeats: int, statement: str = "import fivebar") -> dict:
+    code = f"import time; t = time.perf_counter(); {statement}; print(time.perf_counter() - t)"
     ts = [float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                                check=True).stdout) for _ in range(repeats)]
-    return {"median": statistics.median(ts), "min": min(ts), "max": max(ts)}
+    return {"statement": statement, "median": statistics.median(ts), "min": min(ts),
+            "max": max(ts)}
 
 
 _FIRST_CALL = r"""
@@ -180,6 +187,7 @@ def main() -> None:
         if not args.skip_steady:
             res["steady_state_ms"] = steady_costs(args.repeats)
     res["import_s"] = import_time(args.repeats)
+    res["import_steady_state_s"] = import_time(args.repeats, "from fivebar import steady_state")
     res["numba_s"] = numba_compile()
     res["load"] = {"start": load0, "end": os.getloadavg()}
     text = json.dumps(res, indent=1)

@@ -10,8 +10,9 @@ its element data) and keeps the Python loop for a generic system with Python cal
 
 Compiled functions are cached on disk (``cache=True``), in ``__pycache__`` beside this file or,
 where that is not writable (a read-only install), in numba's fallback user-wide cache directory;
-set ``NUMBA_CACHE_DIR`` to choose another place.  Nothing here allocates per Newton iteration:
-the work arrays are made once per call, and norms are plain loops (no temporaries).
+set ``NUMBA_CACHE_DIR`` to choose another place.  The time loop's work arrays are made once
+per call (the element loop's four small ones per evaluation), matrix products and norms are
+plain loops (no temporaries, no BLAS calls: the matrices are small).
 
 Status codes returned by :func:`march` (the caller raises the matching error):
 0 converged, 1 residual not finite, 2 Newton did not converge in ``max_iter``, 3 singular tangent.
@@ -135,6 +136,19 @@ def matvec(A, x, out):
         for j in range(m):
             s += A[i, j] * x[j]
         out[i] = s
+
+
+@njit(cache=True)
+def gemm_acc(alpha, A, B, out):
+    """``out += alpha A @ B`` (loops over contiguous rows)."""
+    n, m = A.shape
+    p = B.shape[1]
+    for i in range(n):
+        for k in range(m):
+            c = alpha * A[i, k]
+            if c != 0.0:
+                for j in range(p):
+                    out[i, j] += c * B[k, j]
 
 
 @njit(cache=True)
@@ -283,6 +297,11 @@ def march(Ms, Cs, Ks, Fs, k0, m_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af
     piv = np.empty(n, np.int64)
     Mbw = np.empty((n, n))
     ms = Pu.shape[1]
+    Dut = np.empty((n, ms))
+    Dvt = np.empty((n, ms))
+    Das = np.empty((n, ms))
+    Wv = np.empty((n, ms))
+    dR = np.empty((n, ms))
 
     for j in range(1, nsteps + 1):
         t = t0 + j * dt
@@ -395,25 +414,38 @@ def march(Ms, Cs, Ks, Fs, k0, m_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af
             v1[i] = vt[i] + gdt * a1[i]
 
         if sens:
-            dut = Pu + dt * Pv + c_up * Pa
-            dvt = Pv + c_vp * Pa
-            das = dut * (-1.0 / bdt2)
-            dR = (1.0 - am) * np.dot(Mb, das) + (1.0 - af) * np.dot(C, dvt + gdt * das)
-            if not newmark:  # the alpha terms, with the blocks and matrices at t_n
-                Kp = Ks[(kk - 1) % SK]
-                Cp = Cs[(kk - 1) % SC]
-                KpF = Kp + Ktp if nonlin else Kp
-                dR += am * np.dot(Mb, Pa) + af * (np.dot(KpF, Pu) + np.dot(Cp, Pv))
+            for i in range(n):
+                for l in range(ms):
+                    dut = Pu[i, l] + dt * Pv[i, l] + c_up * Pa[i, l]
+                    dvt = Pv[i, l] + c_vp * Pa[i, l]
+                    das = -dut / bdt2
+                    Dut[i, l] = dut
+                    Dvt[i, l] = dvt
+                    Das[i, l] = das
+                    Wv[i, l] = dvt + gdt * das
+                    dR[i, l] = 0.0
+            # dR = (1-am) Mb das + (1-af) C (dvt + g dt das)
+            #      [+ am Mb Pa + af ((K + Kt)_n Pu + C_n Pv), the blocks at t_n]
+            gemm_acc(1.0 - am, Mb, Das, dR)
+            gemm_acc(1.0 - af, C, Wv, dR)
+            if not newmark:
+                gemm_acc(am, Mb, Pa, dR)
+                gemm_acc(af, Ks[(kk - 1) % SK], Pu, dR)
+                if nonlin:
+                    gemm_acc(af, Ktp, Pu, dR)
+                gemm_acc(af, Cs[(kk - 1) % SC], Pv, dR)
             lu_solve_matrix(LU, P, dR)
             for i in range(n):
                 for l in range(ms):
                     du1 = -dR[i, l]
-                    da1 = (du1 - dut[i, l]) / bdt2
+                    da1 = (du1 - Dut[i, l]) / bdt2
                     Pu[i, l] = du1
-                    Pv[i, l] = dvt[i, l] + gdt * da1
+                    Pv[i, l] = Dvt[i, l] + gdt * da1
                     Pa[i, l] = da1
             if nonlin and not newmark:
-                Ktp[:, :] = Kt
+                for i in range(n):
+                    for l in range(n):
+                        Ktp[i, l] = Kt[i, l]
         if not newmark:
             matvec(C, v1, Cv)
             matvec(K, u1, Ku)

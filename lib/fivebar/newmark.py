@@ -111,6 +111,18 @@ converged step: with the converged tangent :math:`\mathbf S`,
 and :math:`\delta\dot{\mathbf u}_{n+1} = \delta\tilde{\mathbf v} + \gamma\Delta t\,
 \delta\ddot{\mathbf u}_{n+1}`.
 
+**Compiled loop.**  The time loop above, the Newton iterations, the dense LU of the step
+tangent, the element-by-element nonlinear force and tangent and the sensitivity propagation run
+in compiled code (:mod:`fivebar._kernels`, numba, cached on disk) whenever the data allow it:
+per-step matrices from a :class:`PeriodicStepData`, or a time-invariant system, with either no
+nonlinear force or one that supplies its element data (``system.nonlinear_elements(step_data)``,
+as :class:`fivebar.dynamics.LinkageDynamics` does).  A generic system with Python callbacks
+(a nonlinear force given as a function, time-varying matrices without step data) takes the same
+algorithm written with numpy and LAPACK calls.  The two agree to round-off (tests).  In the
+compiled loop the nonlinear tangent is evaluated only when a Newton update follows (and at the
+converged state when the sensitivity is asked for).  The first call of a fresh installation
+compiles the kernels (tens of seconds); later processes load them from the cache.
+
 References: N. M. Newmark, J. Eng. Mech. Div. ASCE 85 (1959) 67-94; H. M. Hilber,
 T. J. R. Hughes, R. L. Taylor, Earthquake Eng. Struct. Dyn. 5 (1977) 283-292; J. Chung,
 G. M. Hulbert, J. Appl. Mech. 60 (1993) 371-375.
@@ -1078,6 +1090,20 @@ def _kernels() -> Any:
             from . import _kernels as k
         except ImportError:  # pragma: no cover - numba is a pinned dependency
             k = False
+        except RuntimeError as exc:  # numba found no writable cache directory
+            import sys
+            import tempfile
+
+            import numba
+
+            sys.modules.pop(f"{__package__}._kernels", None)
+            numba.config.CACHE_DIR = tempfile.mkdtemp(prefix="fivebar-numba-")
+            warnings.warn(
+                f"numba cannot cache the compiled kernels beside the package or in the user's "
+                f"cache directory ({exc}); caching in {numba.config.CACHE_DIR} for this process "
+                "only. Set NUMBA_CACHE_DIR to a writable directory to keep the cache.",
+                RuntimeWarning, stacklevel=3)
+            from . import _kernels as k
         _KERNELS = k
     return _KERNELS or None
 
