@@ -714,6 +714,7 @@ def integrate(
     sensitivity: bool | Literal["uv", "uva"] = False,
     store: Literal["all", "last"] = "all",
     blas_threads: int | None = 1,
+    directions: ArrayLike | None = None,
 ) -> NewmarkResult:
     r"""March ``M u'' + C u' + K u + f_nl(u) = F`` over ``nsteps`` steps, (4.1)-(4.4).
 
@@ -762,6 +763,12 @@ def integrate(
         monodromy of the discrete map for :class:`Newmark`.  "uva": ``d(u_N, v_N, a_N) /
         d(u_0, v_0, a_0)`` (3n x 3n), the state of the alpha schemes.  True picks "uv" for
         Newmark and "uva" otherwise.
+    directions : array_like (2n, m) or (3n, m), optional
+        With ``sensitivity``: propagate only these ``m`` directions of the initial state
+        (``(u, v)`` for "uv", ``(u, v, a)`` for "uva") and return ``monodromy`` = the product
+        of the step Jacobians times ``directions``, shape (2n, m) or (3n, m): the
+        matrix-free monodromy products of a Newton-Krylov shooting, at a cost that grows with
+        ``m`` instead of ``n``.
     store : {"all", "last"}
         Keep every state, or only the initial and final ones.
     blas_threads : int or None
@@ -811,17 +818,27 @@ def integrate(
     if sensitivity == "uv" and a0 is not None:
         raise ValueError("sensitivity='uv' differentiates through the consistent initial "
                          "acceleration: leave a0=None")
+    if directions is not None:
+        if not sensitivity:
+            raise ValueError("directions needs sensitivity='uv' or 'uva' (the state they refer to)")
+        directions = np.asarray(directions, dtype=float)
+        if directions.ndim == 1:
+            directions = directions[:, None]
+        nx = np.size(u0) * (2 if sensitivity == "uv" else 3)
+        if directions.ndim != 2 or directions.shape[0] != nx or not np.all(np.isfinite(directions)):
+            raise ValueError(f"directions has shape {directions.shape}: expected finite ({nx}, m) "
+                             f"for sensitivity={sensitivity!r} and {np.size(u0)} DOFs")
     if blas_threads is not None and (int(blas_threads) != blas_threads or blas_threads < 1):
         raise ValueError(f"blas_threads={blas_threads!r} must be None or an integer >= 1")
     with _blas_threads(blas_threads):
         return _march(system, u0, v0, t0, dt, nsteps, scheme, a0, step_data, rtol, xtol, atol,
-                      max_iter, newton, sensitivity, store)
+                      max_iter, newton, sensitivity, store, directions)
 
 
 def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, dt: float,
            nsteps: int, scheme: Scheme, a0: ArrayLike | None, step_data: PeriodicStepData | None,
            rtol: float, xtol: float, atol: float, max_iter: int, newton: str, sensitivity: Any,
-           store: str) -> NewmarkResult:
+           store: str, directions: Array | None = None) -> NewmarkResult:
     """The body of :func:`integrate` (arguments checked there)."""
     u = np.array(u0, dtype=float).ravel() if np.ndim(u0) else np.array([u0], dtype=float)
     v = np.array(v0, dtype=float).ravel() if np.ndim(v0) else np.array([v0], dtype=float)
@@ -922,6 +939,8 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
             Pu = np.hstack([np.eye(n), np.zeros((n, 2 * n))])
             Pv = np.hstack([np.zeros((n, n)), np.eye(n), np.zeros((n, n))])
             Pa = np.hstack([np.zeros((n, 2 * n)), np.eye(n)])
+        if directions is not None:  # only the products with the given directions
+            Pu, Pv, Pa = (np.ascontiguousarray(P @ directions) for P in (Pu, Pv, Pa))
         Phi = [Pu, Pv, Pa]
     prev = (M0, C0, K0, Kt0)  # matrices at t_n (for the alpha terms)
 
