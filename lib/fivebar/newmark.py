@@ -621,6 +621,10 @@ def _blas_threads(k: int | None) -> contextlib.AbstractContextManager[Any]:
     if k is None or ThreadpoolController is None:
         return contextlib.nullcontext()
     if _CONTROLLER is None:
+        # the controller sees only the BLAS libraries loaded when it is made: load scipy's
+        # (used by the LAPACK calls of the Python loop and the BLAS calls of the compiled one)
+        import scipy.linalg.cython_blas  # noqa: F401
+
         _CONTROLLER = ThreadpoolController()
     return _CONTROLLER.limit(limits=int(k), user_api="blas")
 
