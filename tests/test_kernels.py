@@ -237,3 +237,24 @@ def test_directions_give_the_monodromy_products(dyn, scheme, compiled, monkeypat
         assert np.linalg.norm(part[rows] - ref[rows]) <= 1e-8 * np.linalg.norm(ref[rows])
     with pytest.raises(ValueError, match="directions has shape"):
         integrate(dyn, u0, v0, 0.0, dyn.dt, 2, scheme, directions=X[:5], **kw)
+
+
+def test_python_loop_serves_where_the_kernels_cannot(dyn, monkeypatch):
+    """Step data that do not sample the model's own step times (here S = 20 instead of 100),
+    and a nonlinear force given as a Python function, take the Python loop."""
+    calls = []
+    real = nm._march_python
+
+    def spy(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(nm, "_march_python", spy)
+    other = nm.PeriodicStepData(dyn.step_data.M[::5], dyn.step_data.C[::5], dyn.step_data.K[::5],
+                                dyn.step_data.F[::5], t0=0.0, period=dyn.period)
+    assert dyn.nonlinear_elements(other) is None
+    integrate(dyn, np.zeros(dyn.n), np.zeros(dyn.n), 0.0, other.dt, 3, step_data=other)
+    assert calls == [1]
+    cubic = System(np.eye(2), np.zeros((2, 2)), np.eye(2), nonlinear=lambda u: (u**3, np.diag(3 * u**2)))
+    integrate(cubic, [0.1, 0.0], [0.0, 0.0], 0.0, 0.1, 3)
+    assert calls == [1, 1]
