@@ -174,7 +174,7 @@ class LinkageDynamics:
     def nonlinear_elements(self, step_data: PeriodicStepData):
         """Element data of f_nl at the time points of ``step_data`` for the compiled step.
 
-        ``(Ge, ae, wE, idx)`` as :func:`fivebar._kernels.nl_force` takes them, ``Ge`` and
+        ``(Ge, ae, wE, idx)`` as ``fivebar._kernels.nl_force`` takes them, ``Ge`` and
         ``ae`` sampled at the S step times; None when the model is linear or ``step_data``
         does not sample this model's period at its step times (then the Python loop serves).
         """

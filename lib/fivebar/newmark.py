@@ -113,7 +113,7 @@ and :math:`\delta\dot{\mathbf u}_{n+1} = \delta\tilde{\mathbf v} + \gamma\Delta 
 
 **Compiled loop.**  The time loop above, the Newton iterations, the dense LU of the step
 tangent, the element-by-element nonlinear force and tangent and the sensitivity propagation run
-in compiled code (:mod:`fivebar._kernels`, numba, cached on disk) whenever the data allow it:
+in compiled code (``fivebar._kernels``, numba, cached on disk) whenever the data allow it:
 per-step matrices from a :class:`PeriodicStepData`, or a time-invariant system, with either no
 nonlinear force or one that supplies its element data (``system.nonlinear_elements(step_data)``,
 as :class:`fivebar.dynamics.LinkageDynamics` does).  A generic system with Python callbacks
@@ -1138,7 +1138,7 @@ def _new_lu_cache(S: int, n: int) -> tuple[Array, NDArray[np.int64], NDArray[np.
 def _march_compiled(Ms, Cs, Ks, Fs, k0, M_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af,
                     elems, Kt0, rtol, xtol, atol, max_iter, full, cache, Phi, store_all, T, U, V,
                     A, iters) -> None:
-    """Run :func:`fivebar._kernels.march` and raise what the Python loop would raise."""
+    """Run ``fivebar._kernels.march`` and raise what the Python loop would raise."""
     kern = _kernels()
     n = u.size
     nonlin = elems is not None
