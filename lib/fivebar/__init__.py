@@ -9,19 +9,44 @@ The facade below is what the chapters use; the modules hold the rest.  Units at 
 or the unit in the name (``crank_speed_rpm``, ``midpoint(...)`` in mm as its docstring says).
 """
 
-from .control import linear_model
-from .errors import FivebarError
-from .elements import beam_element, motor_element
-from .kinematics import GeometryError, positions
-from .excitation import excitation_frequencies, load_expansion
-from .modal import natural_frequencies
-from .linkage_multiscale import MultipleScalesResponse, multiple_scales, multiple_scales_newmark
-from .newmark import GeneralizedAlpha, HHT, Newmark, NewtonConvergenceError, UnstableParametersError, integrate
-from .params import DEFAULT_PARAMS_PATH, Motor, ParameterError, Params, load_params
-from .resonance import campbell_diagram, resonance_table
-from .setup import PAPER_SCHEME, Setup
-from .steady import SteadyState, SteadyStateError, steady_state
-from .sweep import speed_sweep
+# The facade is lazy (PEP 562): ``import fivebar`` loads no heavy module (scipy submodules,
+# matplotlib, pandas, control, numba); a name is imported from its module on first use.
+_FACADE = {
+    "linear_model": "control",
+    "FivebarError": "errors",
+    "PAPER_SCHEME": "setup", "Setup": "setup",
+    "multibody_frequencies": "multibody", "multibody_steady_state": "multibody",
+    "beam_element": "elements", "motor_element": "elements",
+    "GeometryError": "kinematics", "positions": "kinematics",
+    "excitation_frequencies": "excitation", "load_expansion": "excitation",
+    "natural_frequencies": "modal",
+    "MultipleScalesResponse": "linkage_multiscale", "multiple_scales": "linkage_multiscale",
+    "multiple_scales_newmark": "linkage_multiscale",
+    "GeneralizedAlpha": "newmark", "HHT": "newmark", "Newmark": "newmark",
+    "NewtonConvergenceError": "newmark", "UnstableParametersError": "newmark",
+    "integrate": "newmark",
+    "DEFAULT_PARAMS_PATH": "params", "Motor": "params", "ParameterError": "params",
+    "Params": "params", "load_params": "params",
+    "campbell_diagram": "resonance", "resonance_table": "resonance",
+    "SteadyState": "steady", "SteadyStateError": "steady", "steady_state": "steady",
+    "speed_sweep": "sweep",
+}
+
+
+def __getattr__(name: str):
+    module = _FACADE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'fivebar' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_FACADE))
+
 
 __all__ = [
     "DEFAULT_PARAMS_PATH",
@@ -60,22 +85,3 @@ __all__ = [
 ]
 __version__ = "0.1.0"
 
-
-def multibody_steady_state(params, crank_speed_rpm=None, **kwargs):
-    """Periodic steady state of the fully coupled multibody model (Exudyn).
-
-    See :func:`fivebar.multibody.multibody_steady_state`; Exudyn is imported on first use.
-    """
-    from .multibody import multibody_steady_state as f
-
-    return f(params, crank_speed_rpm, **kwargs)
-
-
-def multibody_frequencies(params, theta1, theta4, n=6, **kwargs):
-    """Frozen natural frequencies (Hz) of the multibody model, crank roots clamped.
-
-    See :func:`fivebar.multibody.multibody_frequencies`; Exudyn is imported on first use.
-    """
-    from .multibody import multibody_frequencies as f
-
-    return f(params, theta1, theta4, n, **kwargs)

@@ -111,6 +111,18 @@ converged step: with the converged tangent :math:`\mathbf S`,
 and :math:`\delta\dot{\mathbf u}_{n+1} = \delta\tilde{\mathbf v} + \gamma\Delta t\,
 \delta\ddot{\mathbf u}_{n+1}`.
 
+**Compiled loop.**  The time loop above, the Newton iterations, the dense LU of the step
+tangent, the element-by-element nonlinear force and tangent and the sensitivity propagation run
+in compiled code (``fivebar._kernels``, numba, cached on disk) whenever the data allow it:
+per-step matrices from a :class:`PeriodicStepData`, or a time-invariant system, with either no
+nonlinear force or one that supplies its element data (``system.nonlinear_elements(step_data)``,
+as :class:`fivebar.dynamics.LinkageDynamics` does).  A generic system with Python callbacks
+(a nonlinear force given as a function, time-varying matrices without step data) takes the same
+algorithm written with numpy and LAPACK calls.  The two agree to round-off (tests).  In the
+compiled loop the nonlinear tangent is evaluated only when a Newton update follows (and at the
+converged state when the sensitivity is asked for).  The first call of a fresh installation
+compiles the kernels (tens of seconds); later processes load them from the cache.
+
 References: N. M. Newmark, J. Eng. Mech. Div. ASCE 85 (1959) 67-94; H. M. Hilber,
 T. J. R. Hughes, R. L. Taylor, Earthquake Eng. Struct. Dyn. 5 (1977) 283-292; J. Chung,
 G. M. Hulbert, J. Appl. Mech. 60 (1993) 371-375.
@@ -128,7 +140,6 @@ from typing import Any, Literal, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg.lapack import dgetrf, dgetrs
 
 from .errors import FivebarError
 
@@ -542,6 +553,8 @@ class PeriodicStepData:
         self.t0, self.period, self.steps, self.n = float(t0), float(period), int(S), int(n)
         self.dt = self.period / self.steps
         self._lu: dict[tuple[float, float, float, float], list[Any]] = {}
+        self._klu: dict[tuple[float, float, float, float], Any] = {}
+        self._kernel_arrays: tuple[Array, Array, Array, Array] | None = None
 
     @classmethod
     def from_system(cls, system: SecondOrderSystem, t0: float, period: float,
@@ -556,6 +569,22 @@ class PeriodicStepData:
             np.array([m[2] for m in mats]),
             np.array([system.force(float(t)) for t in ts]), t0, period,
         )
+
+    def kernel_arrays(self) -> tuple[Array, Array, Array, Array]:
+        """``M, C, K, F`` as contiguous arrays for the compiled loop; an array that is the same
+        at every step is given once (leading dimension 1)."""
+        if self._kernel_arrays is None:
+            self._kernel_arrays = tuple(
+                np.ascontiguousarray(X[:1] if X.strides[0] == 0 else X, dtype=float)
+                for X in (self.M, self.C, self.K, self.F))
+        return self._kernel_arrays
+
+    def kernel_lu_cache(self, key: tuple[float, float, float, float]) -> tuple[Any, Any, Any]:
+        """The compiled loop's per-step LU cache of the linear tangent, ``(LU, piv, filled)``,
+        for ``key = (cM, cC, cK, alpha_f)`` (see :meth:`lu`); filled lazily by the loop."""
+        if key not in self._klu:
+            self._klu[key] = _new_lu_cache(self.steps, self.n)
+        return self._klu[key]
 
     def lu(self, k: int, cM: float, cC: float, cK: float, alpha_f: float = 0.0) -> Any:
         """Cached LU of the linear tangent of the step ending at point k.
@@ -572,6 +601,8 @@ class PeriodicStepData:
 
 def _factor(S: Array, t: float) -> tuple[Array, NDArray[np.int32]]:
     """LU factorisation by LAPACK getrf (scipy's lu_factor wrapper costs ~10 us per call)."""
+    from scipy.linalg.lapack import dgetrf  # here: scipy.linalg takes ~0.3 s to import
+
     lu, piv, info = dgetrf(S, overwrite_a=True)
     d = np.abs(lu.diagonal())
     dmin, dmax = d.min(), d.max()
@@ -592,12 +623,18 @@ def _blas_threads(k: int | None) -> contextlib.AbstractContextManager[Any]:
     if k is None or ThreadpoolController is None:
         return contextlib.nullcontext()
     if _CONTROLLER is None:
+        # the controller sees only the BLAS libraries loaded when it is made: load scipy's
+        # (used by the LAPACK calls of the Python loop and the BLAS calls of the compiled one)
+        import scipy.linalg.cython_blas  # noqa: F401
+
         _CONTROLLER = ThreadpoolController()
     return _CONTROLLER.limit(limits=int(k), user_api="blas")
 
 
 def _solve(lu: tuple[Array, NDArray[np.int32]], b: Array) -> Array:
     """Solve with a factorisation from :func:`_factor` (LAPACK getrs)."""
+    from scipy.linalg.lapack import dgetrs
+
     x, info = dgetrs(lu[0], lu[1], b)
     return x
 
@@ -683,6 +720,7 @@ def integrate(
     sensitivity: bool | Literal["uv", "uva"] = False,
     store: Literal["all", "last"] = "all",
     blas_threads: int | None = 1,
+    directions: ArrayLike | None = None,
 ) -> NewmarkResult:
     r"""March ``M u'' + C u' + K u + f_nl(u) = F`` over ``nsteps`` steps, (4.1)-(4.4).
 
@@ -731,6 +769,12 @@ def integrate(
         monodromy of the discrete map for :class:`Newmark`.  "uva": ``d(u_N, v_N, a_N) /
         d(u_0, v_0, a_0)`` (3n x 3n), the state of the alpha schemes.  True picks "uv" for
         Newmark and "uva" otherwise.
+    directions : array_like (2n, m) or (3n, m), optional
+        With ``sensitivity``: propagate only these ``m`` directions of the initial state
+        (``(u, v)`` for "uv", ``(u, v, a)`` for "uva") and return ``monodromy`` = the product
+        of the step Jacobians times ``directions``, shape (2n, m) or (3n, m): the
+        matrix-free monodromy products of a Newton-Krylov shooting, at a cost that grows with
+        ``m`` instead of ``n``.
     store : {"all", "last"}
         Keep every state, or only the initial and final ones.
     blas_threads : int or None
@@ -780,17 +824,27 @@ def integrate(
     if sensitivity == "uv" and a0 is not None:
         raise ValueError("sensitivity='uv' differentiates through the consistent initial "
                          "acceleration: leave a0=None")
+    if directions is not None:
+        if not sensitivity:
+            raise ValueError("directions needs sensitivity='uv' or 'uva' (the state they refer to)")
+        directions = np.asarray(directions, dtype=float)
+        if directions.ndim == 1:
+            directions = directions[:, None]
+        nx = np.size(u0) * (2 if sensitivity == "uv" else 3)
+        if directions.ndim != 2 or directions.shape[0] != nx or not np.all(np.isfinite(directions)):
+            raise ValueError(f"directions has shape {directions.shape}: expected finite ({nx}, m) "
+                             f"for sensitivity={sensitivity!r} and {np.size(u0)} DOFs")
     if blas_threads is not None and (int(blas_threads) != blas_threads or blas_threads < 1):
         raise ValueError(f"blas_threads={blas_threads!r} must be None or an integer >= 1")
     with _blas_threads(blas_threads):
         return _march(system, u0, v0, t0, dt, nsteps, scheme, a0, step_data, rtol, xtol, atol,
-                      max_iter, newton, sensitivity, store)
+                      max_iter, newton, sensitivity, store, directions)
 
 
 def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, dt: float,
            nsteps: int, scheme: Scheme, a0: ArrayLike | None, step_data: PeriodicStepData | None,
            rtol: float, xtol: float, atol: float, max_iter: int, newton: str, sensitivity: Any,
-           store: str) -> NewmarkResult:
+           store: str, directions: Array | None = None) -> NewmarkResult:
     """The body of :func:`integrate` (arguments checked there)."""
     u = np.array(u0, dtype=float).ravel() if np.ndim(u0) else np.array([u0], dtype=float)
     v = np.array(v0, dtype=float).ravel() if np.ndim(v0) else np.array([v0], dtype=float)
@@ -891,7 +945,9 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
             Pu = np.hstack([np.eye(n), np.zeros((n, 2 * n))])
             Pv = np.hstack([np.zeros((n, n)), np.eye(n), np.zeros((n, n))])
             Pa = np.hstack([np.zeros((n, 2 * n)), np.eye(n)])
-        Phi = (Pu, Pv, Pa)
+        if directions is not None:  # only the products with the given directions
+            Pu, Pv, Pa = (np.ascontiguousarray(P @ directions) for P in (Pu, Pv, Pa))
+        Phi = [Pu, Pv, Pa]
     prev = (M0, C0, K0, Kt0)  # matrices at t_n (for the alpha terms)
 
     time_invariant = bool(getattr(system, "time_invariant", False)) and sd is None
@@ -908,7 +964,53 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
             return lu_const
         return _factor(cM * M + cC * C + cK * K, t0 + j * dt)
 
-    # --- time loop ---------------------------------------------------------------------------
+    # --- the compiled loop, where it serves ------------------------------------------------
+    elems = None
+    if not linear and sd is not None:
+        get = getattr(system, "nonlinear_elements", None)
+        elems = get(sd) if callable(get) else None
+    if (_USE_KERNELS and (sd is not None or time_invariant) and (linear or elems is not None)
+            and _kernels() is not None):
+        if sd is not None:
+            Ms, Cs, Ks, Fs = sd.kernel_arrays()
+            af_key = 0.0 if M_const else af
+            cache = sd.kernel_lu_cache((cM, cC, cK, af_key))
+        else:
+            Ms, Cs, Ks = (np.ascontiguousarray(X)[None] for X in (M0, C0, K0))
+            Fs = np.empty((nsteps + 1, n))
+            Fs[0] = F0
+            for j in range(1, nsteps + 1):
+                Fs[j] = data(j)[3]
+            cache = _new_lu_cache(1, n)
+        u, v, a = u.copy(), v.copy(), a.copy()
+        _march_compiled(Ms, Cs, Ks, Fs, k0, M_const, u, v, a,
+                        gn if not newmark else np.zeros(n), nsteps, t0, dt, g, b, am, af,
+                        elems, Kt0, rtol, xtol, atol, max_iter, newton == "full", cache, Phi,
+                        store == "all", T, U, V, A, iters)
+        if store == "last":
+            u, v, a = U[1], V[1], A[1]
+    else:
+        u, v, a, Phi = _march_python(
+            nsteps, t0, dt, data, u, v, a, gn if not newmark else None, Phi, prev, nl, linear,
+            newmark, M_const, linear_lu, g, bdt2, am, af, cM, cC, cK, c_up, c_vp, rtol, xtol,
+            atol, max_iter, newton, store, T, U, V, A, iters)
+    if store == "last":
+        T[1], U[1], V[1], A[1] = t0 + nsteps * dt, u, v, a
+
+    mono = None
+    state = None
+    if Phi is not None:
+        state = str(sensitivity)
+        mono = np.vstack(Phi[:2]) if sensitivity == "uv" else np.vstack(Phi)
+    return NewmarkResult(t=T, u=U, v=V, a=A, iterations=iters, scheme=scheme, monodromy=mono,
+                         state=state)
+
+
+def _march_python(nsteps, t0, dt, data, u, v, a, gn, Phi, prev, nl, linear, newmark, M_const,
+                  linear_lu, g, bdt2, am, af, cM, cC, cK, c_up, c_vp, rtol, xtol, atol, max_iter,
+                  newton, store, T, U, V, A, iters):
+    """The time loop in Python: for systems the compiled kernels cannot serve (Python callbacks
+    of a generic :class:`SecondOrderSystem`, time-varying systems without step data)."""
     for j in range(1, nsteps + 1):
         t = t0 + j * dt
         M, C, K, F = data(j)
@@ -996,13 +1098,86 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
         u, v, a = u1, v1, a1
         if store == "all":
             T[j], U[j], V[j], A[j] = t, u, v, a
-    if store == "last":
-        T[1], U[1], V[1], A[1] = t0 + nsteps * dt, u, v, a
+    return u, v, a, Phi
 
-    mono = None
-    state = None
+
+#: Use the compiled kernels where they serve (a switch for benchmarks and comparison tests).
+_USE_KERNELS = True
+_KERNELS: Any = None
+
+
+def _kernels() -> Any:
+    """The compiled kernels module (imported on first use: numba is heavy), or None if numba
+    is not installed."""
+    global _KERNELS
+    if _KERNELS is None:
+        try:
+            from . import _kernels as k
+        except ImportError:  # pragma: no cover - numba is a pinned dependency
+            k = False
+        except RuntimeError as exc:  # numba found no writable cache directory
+            import sys
+            import tempfile
+
+            import numba
+
+            sys.modules.pop(f"{__package__}._kernels", None)
+            numba.config.CACHE_DIR = tempfile.mkdtemp(prefix="fivebar-numba-")
+            warnings.warn(
+                f"numba cannot cache the compiled kernels beside the package or in the user's "
+                f"cache directory ({exc}); caching in {numba.config.CACHE_DIR} for this process "
+                "only. Set NUMBA_CACHE_DIR to a writable directory to keep the cache.",
+                RuntimeWarning, stacklevel=3)
+            from . import _kernels as k
+        _KERNELS = k
+    return _KERNELS or None
+
+
+def _new_lu_cache(S: int, n: int) -> tuple[Array, NDArray[np.int64], NDArray[np.uint8]]:
+    return np.zeros((S, n, n)), np.zeros((S, n), dtype=np.int64), np.zeros(S, dtype=np.uint8)
+
+
+def _march_compiled(Ms, Cs, Ks, Fs, k0, M_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af,
+                    elems, Kt0, rtol, xtol, atol, max_iter, full, cache, Phi, store_all, T, U, V,
+                    A, iters) -> None:
+    """Run ``fivebar._kernels.march`` and raise what the Python loop would raise."""
+    kern = _kernels()
+    n = u.size
+    nonlin = elems is not None
+    if nonlin:
+        Ge, ae, wE, idx = elems
+        Kt0 = np.ascontiguousarray(Kt0, dtype=float)
+    else:
+        Ge, ae, wE, idx = _NO_ELEMENTS
+        Kt0 = np.zeros((n, n))
     if Phi is not None:
-        state = str(sensitivity)
-        mono = np.vstack(Phi[:2]) if sensitivity == "uv" else np.vstack(Phi)
-    return NewmarkResult(t=T, u=U, v=V, a=A, iterations=iters, scheme=scheme, monodromy=mono,
-                         state=state)
+        Pu, Pv, Pa = (np.ascontiguousarray(P, dtype=float) for P in Phi)
+        Phi[:] = [Pu, Pv, Pa]
+    else:
+        Pu = Pv = Pa = np.zeros((n, 1))
+    info = np.zeros(7)
+    status = kern.march(Ms, Cs, Ks, Fs, int(k0), bool(M_const), u, v, a, gn, int(nsteps),
+                        float(t0), float(dt), float(g), float(b), float(am), float(af), nonlin,
+                        Ge, ae, wE, idx, Kt0, float(rtol), float(xtol), float(atol),
+                        int(max_iter), bool(full), cache[0], cache[1], cache[2],
+                        Phi is not None, Pu, Pv, Pa, bool(store_all), T, U, V, A, iters, info)
+    if status == kern.OK:
+        return
+    j, t, rn, k_it, dmin, dmax, ref = info
+    j, k_it = int(j), int(k_it)
+    if status == kern.NOT_FINITE:
+        raise NewtonConvergenceError(
+            f"Newton-Raphson diverged in step {j} at t = {t:.9g} s: residual norm {rn} "
+            f"(not finite) after {k_it} iterations", t, rn, k_it)
+    if status == kern.NO_CONVERGENCE:
+        raise NewtonConvergenceError(
+            f"Newton-Raphson did not converge in step {j} at t = {t:.9g} s: residual "
+            f"norm {rn:.3e} (tolerance {rtol:.1e} x {ref:.3e} + {atol:.1e}) after "
+            f"{k_it} iterations (max_iter={max_iter})", t, rn, k_it)
+    raise NewtonConvergenceError(
+        f"the effective stiffness (tangent) at t = {t:.9g} s is singular or not finite "
+        f"(smallest/largest pivot {dmin:.3e}/{dmax:.3e})", t, math.nan, 0)
+
+
+_NO_ELEMENTS = (np.zeros((1, 1, 1, 8)), np.zeros((1, 1, 8)), np.zeros((1, 1)),
+                np.zeros((1, 8), dtype=np.int64))

@@ -176,15 +176,36 @@ class NonlinearForce:
         self._g = np.array([g for _, g in wg])  # (n_el, npts, 8), local slopes
         self._npts = self._g.shape[1]
 
-    def geometry(self, theta1: ArrayLike, theta4: ArrayLike) -> ElementGeometry:
-        """Slope and stretch operators at crank angles (rad) of any (common) shape."""
+    def element_geometry(self, theta1: ArrayLike, theta4: ArrayLike) -> tuple[NDArray, NDArray]:
+        """Per-element slope rows ``Ge`` (..., n_el, n_gauss, 8) and stretch rows ``ae``
+        (..., n_el, 8) in the element's global DOFs, at crank angles (rad) of any common shape.
+
+        With :attr:`element_dofs` and :attr:`element_weights` they are what the compiled
+        element loop (``fivebar._kernels.nl_force``) needs.
+        """
         m = self.model
         betas = np.stack(np.broadcast_arrays(*m.element_angles(link_angles(m.params, theta1, theta4))), axis=-1)
-        shape = betas.shape[:-1]
-        nel, npts, n = len(m.elements), self._npts, self.n
         R = m._rotations(betas)  # (..., n_el, 8, 8) local <- global
         Ge = self._g @ R  # (..., n_el, npts, 8)
         ae = (R[..., 4, :] - R[..., 0, :]) / self._L[:, None]  # (..., n_el, 8)
+        return Ge, ae
+
+    @property
+    def element_dofs(self) -> NDArray:
+        """(n_el, 8) index of each element DOF in ``u``, or ``n`` for a held or dropped DOF."""
+        return self._idx
+
+    @property
+    def element_weights(self) -> NDArray:
+        """(n_el, n_gauss) EA times the Gauss weights (N m)."""
+        return self._wE.reshape(len(self.model.elements), self._npts)
+
+    def geometry(self, theta1: ArrayLike, theta4: ArrayLike) -> ElementGeometry:
+        """Slope and stretch operators at crank angles (rad) of any (common) shape."""
+        m = self.model
+        Ge, ae = self.element_geometry(theta1, theta4)
+        shape = ae.shape[:-2]
+        nel, npts, n = len(m.elements), self._npts, self.n
         H = np.zeros(shape + (2, nel, npts, n))
         for e in range(nel):  # scatter the element columns (a DOF appears once per element)
             j = self._idx[e] < n  # local DOFs that are free (not held, kept)

@@ -1,0 +1,260 @@
+"""The compiled time loop (fivebar._kernels) against independent references.
+
+References: the vectorised numpy nonlinear force (fivebar.nonlinear), finite differences of the
+compiled force and of the compiled one-period map, numpy's LAPACK solve, the closed-form discrete
+solution of the average-acceleration rule for a free oscillator, and the Python time loop (the
+same algorithm written with numpy/LAPACK calls, validated against Radau and closed forms in
+test_newmark and test_dynamics).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import fivebar.newmark as nm
+from fivebar import load_params
+from fivebar import _kernels as kern
+from fivebar.dynamics import LinkageDynamics
+from fivebar.steady import shooting
+from fivebar.newmark import GeneralizedAlpha, HHT, Newmark, NewtonConvergenceError, System, integrate
+
+
+@pytest.fixture(scope="module")
+def dyn():
+    return LinkageDynamics(load_params())
+
+
+def _state(dyn, rng, scale=1.0):
+    """A deflected state for the force tests: the quasi-static deflection (m, rad, 1/m) times
+    a random factor per DOF, amplified so that the nonlinear terms matter (|f_nl| ~ 0.6 % of
+    |K u|)."""
+    us = dyn.quasi_static(np.array([0.1 * dyn.period]))[0]
+    return scale * 50.0 * us * (1 + rng.standard_normal(us.size))
+
+
+def _start(d, scheme):
+    """A state met in use: on the periodic orbit (shooting's), at t = 0."""
+    orbit = shooting(d, scheme=scheme)
+    r = integrate(d, orbit.u[0], orbit.v[0], 0.0, d.dt, 1, scheme, step_data=d.step_data)
+    return orbit.u[0], orbit.v[0], r.a[0]
+
+
+def test_element_loop_matches_the_vectorised_force(dyn):
+    rng = np.random.default_rng(1)
+    Ge, ae, wE, idx = dyn.nonlinear_elements(dyn.step_data)
+    n = dyn.n
+    f, K = np.empty(n), np.empty((n, n))
+    for k in (0, 7, 23):
+        u = _state(dyn, rng)
+        f_ref, K_ref = dyn._nl.evaluate(u, dyn.nonlinear_geometry(k * dyn.dt))
+        kern.nl_force(u, Ge[k], ae[k], wE, idx, f, K, True)
+        assert np.linalg.norm(f_ref) > 0
+        assert np.allclose(f, f_ref, rtol=0, atol=1e-12 * np.abs(f_ref).max())
+        assert np.allclose(K, K_ref, rtol=0, atol=1e-12 * np.abs(K_ref).max())
+        f2 = np.empty(n)
+        kern.nl_force(u, Ge[k], ae[k], wE, idx, f2, K, False)  # force only
+        assert np.array_equal(f2, f)
+
+
+def test_element_tangent_is_the_derivative_of_the_element_force(dyn):
+    rng = np.random.default_rng(2)
+    Ge, ae, wE, idx = dyn.nonlinear_elements(dyn.step_data)
+    n = dyn.n
+    u = _state(dyn, rng)
+    K = np.empty((n, n))
+    kern.nl_force(u, Ge[3], ae[3], wE, idx, np.empty(n), K, True)
+    fp, fm, dummy = np.empty(n), np.empty(n), np.empty((n, n))
+    for j in range(n):
+        h = 1e-4 * max(abs(u[j]), 1e-9)
+        e = np.zeros(n)
+        e[j] = h
+        kern.nl_force(u + e, Ge[3], ae[3], wE, idx, fp, dummy, False)
+        kern.nl_force(u - e, Ge[3], ae[3], wE, idx, fm, dummy, False)
+        col = (fp - fm) / (2 * h)
+        assert np.allclose(K[:, j], col, rtol=0, atol=1e-6 * np.abs(K[:, j]).max() + 1e-300)
+
+
+def test_lu_matches_lapack_and_flags_a_singular_matrix():
+    rng = np.random.default_rng(3)
+    n = 26
+    A = rng.standard_normal((n, n)) * np.logspace(0, 6, n)[None, :]  # wide column scales
+    b = rng.standard_normal(n)
+    B = rng.standard_normal((n, 7))
+    LU, piv = A.copy(), np.empty(n, np.int64)
+    dmin, dmax = kern.lu_factor(LU, piv)
+    assert not kern.singular(dmin, dmax)
+    x = b.copy()
+    kern.lu_solve(LU, piv, x)
+    X = B.copy()
+    kern.lu_solve_matrix(LU, piv, X)
+    cond = np.linalg.cond(A)
+    assert np.linalg.norm(x - np.linalg.solve(A, b)) <= 1e-15 * cond * np.linalg.norm(x)
+    assert np.linalg.norm(X - np.linalg.solve(A, B)) <= 1e-15 * cond * np.linalg.norm(X)
+    S = A.copy()
+    S[:, 5] = S[:, 2]  # rank deficient
+    assert kern.singular(*kern.lu_factor(S, piv))
+    S[0, 0] = np.nan
+    assert kern.singular(*kern.lu_factor(S, piv))
+
+
+@pytest.mark.parametrize("scheme", [Newmark(), HHT(-0.1), GeneralizedAlpha(0.7)],
+                         ids=["newmark", "hht", "galpha"])
+@pytest.mark.parametrize("newton", ["full", "modified"])
+@pytest.mark.parametrize("nonlinear", [False, True], ids=["linear", "nonlinear"])
+def test_compiled_linkage_period_matches_the_python_loop(scheme, newton, nonlinear, monkeypatch):
+    d = LinkageDynamics(load_params(), nonlinear=nonlinear)
+    u0, v0, _ = _start(d, scheme)
+    sens = "uva" if not scheme.is_newmark else "uv"
+    kw = dict(step_data=d.step_data, newton=newton, sensitivity=sens)
+    # 1.5 periods: exercises the wrap of the step data (a start inside the period is
+    # test_newmark's test_step_data_matches_direct_evaluation)
+    args = (d, u0, v0, 0.0, d.dt, 150, scheme)
+    monkeypatch.setattr(nm, "_USE_KERNELS", False)
+    ref = integrate(*args, **kw)
+    monkeypatch.setattr(nm, "_USE_KERNELS", True)
+    calls = []
+    monkeypatch.setattr(nm, "_march_python", lambda *a, **k: calls.append(1))
+    res = integrate(*args, **kw)
+    assert not calls  # the compiled loop served
+    # equal to round-off: the step tangent has condition number ~2e7 (curvature DOFs) and the
+    # random start excites undamped stiff modes, so LAPACK's and the kernel's LU (same
+    # algorithm, different operation order) part at ~1e-16 x 2e7 x steps
+    assert np.abs(res.u - ref.u).max() <= 1e-8 * np.abs(ref.u).max()
+    assert np.abs(res.v - ref.v).max() <= 1e-8 * np.abs(ref.v).max()
+    assert np.abs(res.iterations - ref.iterations).sum() <= 2
+    # the monodromy, block by block (its blocks differ by orders of magnitude)
+    n = d.n
+    for i in range(ref.monodromy.shape[0] // n):
+        for j in range(ref.monodromy.shape[1] // n):
+            R = ref.monodromy[i * n:(i + 1) * n, j * n:(j + 1) * n]
+            C = res.monodromy[i * n:(i + 1) * n, j * n:(j + 1) * n]
+            assert np.linalg.norm(C - R) <= 1e-7 * np.linalg.norm(R)
+    # a stored-last run ends in the same state
+    last = integrate(*args, step_data=d.step_data, newton=newton, store="last")
+    assert np.array_equal(last.u[-1], res.u[-1]) and last.t[-1] == pytest.approx(res.t[-1])
+
+
+@pytest.mark.parametrize("scheme", [Newmark(), GeneralizedAlpha(0.8)], ids=["newmark", "galpha"])
+def test_compiled_monodromy_matches_finite_differences(dyn, scheme):
+    """Columns of the one-period sensitivity of the nonlinear compiled map against central
+    differences of that map."""
+    n = dyn.n
+    u0, v0, a_start = _start(dyn, scheme)
+    sens = "uv" if scheme.is_newmark else "uva"
+    kw = dict(step_data=dyn.step_data, store="last", rtol=1e-12, xtol=1e-15, max_iter=50)
+    a0 = None if sens == "uv" else a_start
+    res = integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, sensitivity=sens, a0=a0, **kw)
+    Phi = res.monodromy
+
+    def final(u, v, a):
+        r = integrate(dyn, u, v, 0.0, dyn.dt, dyn.steps, scheme, a0=a, **kw)
+        x = [r.u[-1], r.v[-1]] + ([] if sens == "uv" else [r.a[-1]])
+        return np.concatenate(x)
+
+    for col in (0, 4, 11, n + 2, n + 9):
+        x0 = [u0.copy(), v0.copy()] + ([] if a0 is None else [a0.copy()])
+        blk, i = divmod(col, n)
+        h = 1e-5 * max(np.abs(x0[blk]).max(), 1e-6)
+        xp = [x.copy() for x in x0]
+        xm = [x.copy() for x in x0]
+        xp[blk][i] += h
+        xm[blk][i] -= h
+        fp = final(xp[0], xp[1], None if a0 is None else xp[2])
+        fm = final(xm[0], xm[1], None if a0 is None else xm[2])
+        fd = (fp - fm) / (2 * h)
+        for b in range(Phi.shape[0] // n):  # each block row (u, v, a) in its own units
+            rows = slice(b * n, (b + 1) * n)
+            exact, approx = Phi[rows, col], fd[rows]
+            assert np.linalg.norm(approx - exact) <= 1e-5 * np.linalg.norm(Phi[rows], 2), (col, b)
+
+
+def test_compiled_free_oscillator_follows_the_closed_form(monkeypatch):
+    """Average acceleration on u'' + w^2 u = 0 is the Cayley map: a rotation of (u, v/w) by
+    2 atan(w dt / 2) per step, exactly (a time-invariant System: the compiled loop serves)."""
+    w, dt, N = 3.0, 0.37, 400
+    calls = []
+    monkeypatch.setattr(nm, "_march_python", lambda *a, **k: calls.append(1))
+    res = integrate(System([[1.0]], [[0.0]], [[w * w]]), [1.0], [0.0], 0.0, dt, N)
+    assert not calls
+    phase = 2 * math.atan(w * dt / 2) * np.arange(N + 1)
+    assert np.abs(res.u[:, 0] - np.cos(phase)).max() < 1e-12
+    assert np.abs(res.v[:, 0] + w * np.sin(phase)).max() < 1e-11
+
+
+def test_compiled_errors_name_the_step(dyn):
+    u0 = _state(dyn, np.random.default_rng(6), scale=3.0)
+    with pytest.raises(NewtonConvergenceError, match=r"did not converge in step 1 .*max_iter=1"):
+        integrate(dyn, u0, np.zeros(dyn.n), 0.0, dyn.dt, 5, step_data=dyn.step_data, max_iter=1,
+                  rtol=1e-15, xtol=0.0)
+    Z = np.zeros((2, 2))
+    with pytest.raises(NewtonConvergenceError, match="singular"):
+        integrate(System(Z, Z, Z), [1.0, 0.0], [0.0, 0.0], 0.0, 0.1, 3, a0=[0.0, 0.0])
+
+
+def test_kernels_load_without_a_writable_cache_location():
+    """With no cache locator available (simulated: only locators that decline), the kernels
+    still load, caching in a temporary directory, with a warning that says how to keep it."""
+    import subprocess
+    import sys
+
+    code = ("import warnings, fivebar.newmark as nm\n"
+            "with warnings.catch_warnings(record=True) as w:\n"
+            "    warnings.simplefilter('always')\n"
+            "    k = nm._kernels()\n"
+            "import numba\n"
+            "assert k is not None and k.march is not None\n"
+            "assert any('NUMBA_CACHE_DIR' in str(x.message) for x in w), [str(x.message) for x in w]\n"
+            "print(numba.config.CACHE_DIR)\n")
+    import os
+    env = dict(os.environ, NUMBA_CACHE_LOCATOR_CLASSES="IPythonCacheLocator,UserProvidedCacheLocator")
+    env.pop("NUMBA_CACHE_DIR", None)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "fivebar-numba-" in r.stdout
+
+
+@pytest.mark.parametrize("scheme", [Newmark(), GeneralizedAlpha(0.8)], ids=["newmark", "galpha"])
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_directions_give_the_monodromy_products(dyn, scheme, compiled, monkeypatch):
+    """Propagating m directions returns the full monodromy times them (both loops)."""
+    monkeypatch.setattr(nm, "_USE_KERNELS", compiled)
+    u0, v0, _ = _start(dyn, scheme)
+    sens = "uv" if scheme.is_newmark else "uva"
+    kw = dict(step_data=dyn.step_data, store="last", sensitivity=sens)
+    full = integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, **kw).monodromy
+    X = np.random.default_rng(7).standard_normal((full.shape[1], 3))
+    part = integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, directions=X, **kw).monodromy
+    assert part.shape == (full.shape[0], 3)
+    n = dyn.n
+    ref = full @ X
+    for b in range(full.shape[0] // n):
+        rows = slice(b * n, (b + 1) * n)
+        # round-off: the acceleration block carries 1/(beta dt^2) ~ 4e4 and the tangent's
+        # condition number ~2e7
+        assert np.linalg.norm(part[rows] - ref[rows]) <= 1e-8 * np.linalg.norm(ref[rows])
+    with pytest.raises(ValueError, match="directions has shape"):
+        integrate(dyn, u0, v0, 0.0, dyn.dt, 2, scheme, directions=X[:5], **kw)
+
+
+def test_python_loop_serves_where_the_kernels_cannot(dyn, monkeypatch):
+    """Step data that do not sample the model's own step times (here S = 20 instead of 100),
+    and a nonlinear force given as a Python function, take the Python loop."""
+    calls = []
+    real = nm._march_python
+
+    def spy(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(nm, "_march_python", spy)
+    other = nm.PeriodicStepData(dyn.step_data.M[::5], dyn.step_data.C[::5], dyn.step_data.K[::5],
+                                dyn.step_data.F[::5], t0=0.0, period=dyn.period)
+    assert dyn.nonlinear_elements(other) is None
+    integrate(dyn, np.zeros(dyn.n), np.zeros(dyn.n), 0.0, other.dt, 3, step_data=other)
+    assert calls == [1]
+    cubic = System(np.eye(2), np.zeros((2, 2)), np.eye(2), nonlinear=lambda u: (u**3, np.diag(3 * u**2)))
+    integrate(cubic, [0.1, 0.0], [0.0, 0.0], 0.0, 0.1, 3)
+    assert calls == [1, 1]
