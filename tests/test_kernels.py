@@ -24,7 +24,7 @@ from fivebar.newmark import GeneralizedAlpha, HHT, Newmark, NewtonConvergenceErr
 
 @pytest.fixture(scope="module")
 def dyn():
-    return LinkageDynamics(load_params())
+    return LinkageDynamics(load_params(), steps_per_period=100)
 
 
 def _state(dyn, rng, scale=1.0):
@@ -105,7 +105,7 @@ def test_lu_matches_lapack_and_flags_a_singular_matrix():
 @pytest.mark.parametrize("newton", ["full", "modified"])
 @pytest.mark.parametrize("nonlinear", [False, True], ids=["linear", "nonlinear"])
 def test_compiled_linkage_period_matches_the_python_loop(scheme, newton, nonlinear, monkeypatch):
-    d = LinkageDynamics(load_params(), nonlinear=nonlinear)
+    d = LinkageDynamics(load_params(), steps_per_period=100, nonlinear=nonlinear)
     u0, v0, _ = _start(d, scheme)
     sens = "uva" if not scheme.is_newmark else "uv"
     kw = dict(step_data=d.step_data, newton=newton, sensitivity=sens)
