@@ -46,6 +46,7 @@ Exudyn is imported inside the functions: ``import fivebar`` does not need it.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -388,7 +389,9 @@ def multibody_steady_state(
     steps_per_period
         Time steps of the generalised-alpha integrator per crank turn (a multiple of samples).
     samples
-        S: samples per period (default ``params.steps_per_period``, 100).
+        S: samples per period.  Default: the parameter file's ``steps_per_period`` when it
+        divides ``steps_per_period``, else the greatest common divisor of the two (so that the
+        samples fall on time steps).
     elements_per_link
         ANCF elements per link L1..L4 (couplers even).
     tol
@@ -403,7 +406,7 @@ def multibody_steady_state(
     exu = _exudyn()
     if crank_speed_rpm is not None:
         params = params.replace(crank_speed_rpm=crank_speed_rpm)
-    S = params.steps_per_period if samples is None else int(samples)
+    S = math.gcd(int(steps_per_period), params.steps_per_period) if samples is None else int(samples)
     if S < 2 or steps_per_period % S:
         raise InputError(f"steps_per_period = {steps_per_period!r} is not allowed: give a multiple of "
                          f"the samples per period S = {S}")
