@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 # that nbval sees the same figure outputs as were stored (tests/conftest.py selects Agg).
 export PYDEVD_DISABLE_FILE_VALIDATION := 1
 
-.PHONY: venv test test-unit test-notebooks book book-clean execute clean
+.PHONY: venv test test-unit test-notebooks book book-clean book-student pdf execute clean
 
 venv: $(STAMP)
 
@@ -43,6 +43,23 @@ book: venv
 	set -eo pipefail; \
 	$(BIN)/jupyter-book build . --builder html -W -n --keep-going 2>&1 | tee _build/book.log; \
 	touch _build/html/.fivebar-build-ok
+
+## make book-student: the student edition (no exercise solutions, neither in the pages nor in
+## the notebooks they offer for download) in _build/student/html.  The instructor edition,
+## with solutions, is `make book`.  Reuses the execution cache of `make book`.
+book-student: venv
+	@mkdir -p _build
+	set -eo pipefail; \
+	$(BIN)/python book/_ext/fivebar_build.py student 2>&1 | tee _build/student.log
+
+## make pdf: the whole book as one PDF, _build/pdf/fivebar.pdf (EDITION=student:
+## _build/pdf/fivebar-student.pdf), printed by the headless Chromium from a singlehtml build;
+## reuses the execution cache of `make book` and copies the PDF into _build/html/ if it exists.
+EDITION ?= instructor
+pdf: venv
+	@mkdir -p _build
+	set -eo pipefail; \
+	$(BIN)/python book/_ext/fivebar_build.py pdf --edition $(EDITION) 2>&1 | tee _build/pdf.log
 
 ## make book-clean: force a full re-execution of every notebook and a full rebuild
 book-clean: venv
