@@ -369,9 +369,28 @@ def print_pdf(html_dir: Path, pdf: Path, edition: str) -> dict:
             "seconds": {"load": t1 - t0, "mathjax": t2 - t1, "print": t3 - t2}}
 
 
-def build_pdf(edition: str = "instructor") -> Path:
-    """``_build/pdf/fivebar.pdf`` (``fivebar-student.pdf`` for the student edition)."""
+def _sources() -> list[Path]:
+    """Every file the book is built from (a PDF newer than all of them is up to date)."""
+    out = [ROOT / "_config.yml", ROOT / "_toc.yml", ROOT / "CITATION.cff"]
+    for folder, pattern in (("book", "**/*"), ("lib/fivebar", "**/*.py"), ("data", "*")):
+        out += [p for p in (ROOT / folder).glob(pattern)
+                if p.is_file() and ".ipynb_checkpoints" not in p.parts
+                and "__pycache__" not in p.parts]
+    return out
+
+
+def build_pdf(edition: str = "instructor", force: bool = False) -> Path:
+    """``_build/pdf/fivebar.pdf`` (``fivebar-student.pdf`` for the student edition).
+
+    Nothing is done if the PDF is newer than every source of the book (``force`` rebuilds).
+    """
     overrides = _edition_overrides(edition)
+    pdf = pdf_path(edition)
+    if not force and pdf.is_file():
+        built = pdf.stat().st_mtime
+        if all(p.stat().st_mtime <= built for p in _sources()):
+            print(f"[fivebar_build] {pdf.relative_to(ROOT)} is up to date")
+            return pdf
     out = BUILD / "pdf"
     suffix = "" if edition == "instructor" else f"-{edition}"
     html = out / f"singlehtml{suffix}"
@@ -381,7 +400,6 @@ def build_pdf(edition: str = "instructor") -> Path:
     root = yaml.safe_load(toc.read_text())["root"]
     shutil.copyfile(html / f"{root}.html", html / PRINT_PAGE)
     t1 = time.perf_counter()
-    pdf = pdf_path(edition)
     summary = print_pdf(html, pdf, edition)
     t2 = time.perf_counter()
     print(f"[fivebar_build] {pdf.relative_to(ROOT)}: {summary['bytes'] / 1e6:.1f} MB, "
@@ -436,12 +454,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("target", choices=("student", "pdf"))
     parser.add_argument("--edition", default="instructor", choices=EDITIONS,
                         help="edition printed by `pdf` (default: instructor)")
+    parser.add_argument("--force", action="store_true",
+                        help="`pdf`: rebuild even if the PDF is newer than every source")
     args = parser.parse_args(argv)
     os.chdir(ROOT)
     if args.target == "student":
         print(f"[fivebar_build] student edition in {build_student().relative_to(ROOT)}")
     else:
-        build_pdf(args.edition)
+        build_pdf(args.edition, force=args.force)
     return 0
 
 
