@@ -17,9 +17,11 @@ overridden without a second configuration file:
 * **pdf**: Sphinx's ``singlehtml`` builder (the whole book on one page, chapters numbered) is
   printed to PDF by the headless Chromium of the browser test (Debian's ``/usr/bin/chromium``
   driven by playwright), after MathJax has typeset every equation, with print CSS (each
-  chapter on a new page, no sidebars or buttons, solutions unfolded), a table of contents on
-  the first pages, page numbers in the footer and a PDF outline.  ``--edition student`` prints
-  the student edition instead.
+  chapter on a new page, no sidebars or buttons, solutions unfolded), the theme's print title
+  and table of contents on the first page (with the version and edition added), page numbers
+  in the footer and a PDF outline (bookmarks).  The PDF numbers its chapters whether or not
+  ``_toc.yml`` does (:func:`numbered_toc`).  ``--edition student`` prints the student edition
+  instead.  An up-to-date PDF (newer than every source) is not printed again.
 
 As a Sphinx extension (``sphinx.local_extensions`` in ``_config.yml``) the module adds the role
 ``{fivebar-pdf}`text```: a download link to the PDF of the edition being built
