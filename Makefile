@@ -21,8 +21,9 @@ $(STAMP): requirements-lock.txt pyproject.toml
 	touch $(STAMP)
 
 ## make test: the book (built first: warnings are errors), library unit tests, nbval (strict)
-## over every notebook in book/, and the browser test of the built book (tests/test_browser.py)
-test: venv book
+## over every notebook in book/, and the browser test of the built book (tests/test_browser.py);
+## the PDF is printed first (when Chromium is there) so that the book links it (tests/test_pdf.py)
+test: venv pdf-if-chromium book
 	$(BIN)/python -m pytest -p no:cacheprovider tests book --nbval --nbval-current-env \
 	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
 

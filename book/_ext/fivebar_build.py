@@ -458,9 +458,26 @@ def _pdf_role(name, rawtext, text, lineno, inliner, options=None, content=None):
             nodes.Text(")")], []
 
 
+def _drop_stale_pdf_copies(app, env) -> None:
+    """Delete the build's copies of a PDF that has changed since, before Sphinx copies it.
+
+    Sphinx copies download files over an older copy with a message ("will overwrite data")
+    that later Sphinx versions turn into a warning, which the strict build would treat as an
+    error.
+    """
+    if app.builder.format != "html":
+        return
+    for edition in EDITIONS:
+        src = pdf_path(edition)
+        for old in Path(app.outdir, "_downloads").glob(f"*/{src.name}"):
+            if not src.is_file() or old.stat().st_mtime < src.stat().st_mtime:
+                old.unlink()
+
+
 def setup(app):
     """Sphinx entry point: the ``{fivebar-pdf}`` role."""
     app.add_role("fivebar-pdf", _pdf_role)
+    app.connect("env-updated", _drop_stale_pdf_copies)
     return {"version": "1.0", "parallel_read_safe": True, "parallel_write_safe": True}
 
 
