@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 # that nbval sees the same figure outputs as were stored (tests/conftest.py selects Agg).
 export PYDEVD_DISABLE_FILE_VALIDATION := 1
 
-.PHONY: venv test test-unit test-notebooks book book-clean execute clean
+.PHONY: venv test test-unit test-notebooks book book-clean book-student pdf pdf-if-chromium execute clean
 
 venv: $(STAMP)
 
@@ -21,8 +21,9 @@ $(STAMP): requirements-lock.txt pyproject.toml
 	touch $(STAMP)
 
 ## make test: the book (built first: warnings are errors), library unit tests, nbval (strict)
-## over every notebook in book/, and the browser test of the built book (tests/test_browser.py)
-test: venv book
+## over every notebook in book/, and the browser test of the built book (tests/test_browser.py);
+## the PDF is printed first (when Chromium is there) so that the book links it (tests/test_pdf.py)
+test: venv pdf-if-chromium book
 	$(BIN)/python -m pytest -p no:cacheprovider tests book --nbval --nbval-current-env \
 	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
 
@@ -43,6 +44,28 @@ book: venv
 	set -eo pipefail; \
 	$(BIN)/jupyter-book build . --builder html -W -n --keep-going 2>&1 | tee _build/book.log; \
 	touch _build/html/.fivebar-build-ok
+
+## make book-student: the student edition (no exercise solutions, neither in the pages nor in
+## the notebooks they offer for download) in _build/student/html.  The instructor edition,
+## with solutions, is `make book`.  Reuses the execution cache of `make book`.
+book-student: venv
+	@mkdir -p _build
+	set -eo pipefail; \
+	$(BIN)/python book/_ext/fivebar_build.py student 2>&1 | tee _build/student.log
+
+## make pdf: the whole book as one PDF, _build/pdf/fivebar.pdf (EDITION=student:
+## _build/pdf/fivebar-student.pdf), printed by the headless Chromium from a singlehtml build;
+## reuses the execution cache of `make book` and copies the PDF into _build/html/ if it exists.
+EDITION ?= instructor
+pdf: venv
+	@mkdir -p _build
+	set -eo pipefail; \
+	$(BIN)/python book/_ext/fivebar_build.py pdf --edition $(EDITION) 2>&1 | tee _build/pdf.log
+
+CHROMIUM ?= $(or $(FIVEBAR_CHROMIUM),/usr/bin/chromium)
+pdf-if-chromium: venv
+	@if [ -x "$(CHROMIUM)" ]; then $(MAKE) --no-print-directory pdf; \
+	else echo "no Chromium at $(CHROMIUM): no PDF (tests/test_pdf.py skips it; under CI it fails)"; fi
 
 ## make book-clean: force a full re-execution of every notebook and a full rebuild (and
 ## regenerate the CSV downloads and animation pages in book/_generated)

@@ -1,0 +1,280 @@
+"""The book's editions, its launch buttons and its version.
+
+* **Student edition** (``make book-student`` -> ``_build/student/html``): the text of every
+  exercise solution in the notebooks is absent from every file of the built edition (pages,
+  search index, the notebooks offered for download), while the exercises are there; the
+  solutions are found in the notebooks by markdown-it (the parser MyST itself uses), not by
+  the regular expressions that remove them, and the same probe finds them in the instructor
+  edition (``_build/html``) so that the check can fail.
+* **Solution stripping** (:func:`fivebar_build.strip_solutions`) on hand-written cases.
+* **Launch buttons**: a one-chapter book built with the book's own ``_config.yml``, once as
+  distributed (no ``repository.url``: no launch links) and once with a repository and a
+  Binder and JupyterHub service set (the links appear, pointing at the chapter's notebook).
+* **Version**: ``fivebar.__version__``, ``CITATION.cff``, ``pyproject.toml`` and the
+  "Version and citation" section of ``book/run.md`` agree.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import re
+import shutil
+import subprocess
+import sys
+import tomllib
+from urllib.parse import unquote
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+STUDENT = ROOT / "_build" / "student" / "html"
+INSTRUCTOR = ROOT / "_build" / "html"
+sys.path.insert(0, str(ROOT / "book" / "_ext"))
+import fivebar_build  # noqa: E402  (book/_ext is not a package)
+
+
+def _sources() -> list[Path]:
+    out = [ROOT / "_config.yml", ROOT / "_toc.yml"]
+    for folder, pattern in (("book", "**/*"), ("lib/fivebar", "**/*.py"), ("data", "*")):
+        out += [p for p in (ROOT / folder).glob(pattern)
+                if p.is_file() and ".ipynb_checkpoints" not in p.parts
+                and "__pycache__" not in p.parts]
+    return out
+
+
+def _fresh(stamp: Path) -> bool:
+    return stamp.is_file() and all(p.stat().st_mtime <= stamp.stat().st_mtime for p in _sources())
+
+
+def _make(target: str, stamp: Path) -> None:
+    if _fresh(stamp):
+        return
+    if shutil.which("make") is None:
+        pytest.skip(f"`make {target}` is needed and `make` is not available")
+    run = subprocess.run(["make", target], cwd=ROOT, capture_output=True, text=True)
+    if run.returncode != 0 or not stamp.is_file():
+        tail = "\n".join((run.stdout + run.stderr).splitlines()[-40:])
+        pytest.fail(f"`make {target}` failed (exit {run.returncode}):\n{tail}")
+
+
+@pytest.fixture(scope="module")
+def student() -> Path:
+    _make("book-student", STUDENT / ".fivebar-build-ok")
+    return STUDENT
+
+
+@pytest.fixture(scope="module")
+def instructor() -> Path:
+    _make("book", INSTRUCTOR / ".fivebar-build-ok")
+    return INSTRUCTOR
+
+
+# --------------------------------------------------------------------------------------------
+# What the notebooks say: exercises and solutions, found by markdown-it
+# --------------------------------------------------------------------------------------------
+
+
+def _blocks(kind: str) -> list[tuple[str, str]]:
+    """(notebook, body) of every ``{kind}`` directive in the chapters' markdown cells."""
+    from markdown_it import MarkdownIt
+    from mdit_py_plugins.colon_fence import colon_fence_plugin
+
+    md = MarkdownIt("commonmark").use(colon_fence_plugin)
+    out = []
+    for nb_path in sorted((ROOT / "book").glob("*.ipynb")):
+        for cell in json.loads(nb_path.read_text())["cells"]:
+            if cell["cell_type"] != "markdown":
+                continue
+            for tok in md.parse("".join(cell["source"])):
+                if tok.type in {"fence", "colon_fence"} and tok.info.strip().startswith(f"{{{kind}}}"):
+                    out.append((nb_path.name, tok.content))
+    return out
+
+
+_WORD_RUN = re.compile(r"[A-Za-z][A-Za-z ,;]{30,}[A-Za-z]")
+
+
+def _probe(body: str) -> str:
+    """A run of plain words (no math, code or markup) from a directive's body."""
+    text = re.sub(r"^:\w+:.*$", "", body, flags=re.M)          # directive options
+    text = re.sub(r"\$\$.*?\$\$|\$[^$]*\$|`[^`]*`", " | ", text, flags=re.S)
+    runs = [re.sub(r"\s+", " ", r).strip() for r in _WORD_RUN.findall(text.replace("\n", " "))]
+    runs = [r for r in runs if len(r.split()) >= 6]
+    assert runs, f"no plain-text run to look for in {body[:80]!r}"
+    return max(runs, key=len)
+
+
+def _page_text(path: Path) -> str:
+    """What a reader (or a search, or a text editor) finds in a built file."""
+    raw = path.read_text(encoding="utf-8", errors="replace")
+    if path.suffix == ".html":
+        raw = re.sub(r"<[^>]+>", " ", raw)
+    raw = html.unescape(raw)
+    for a, b in (("\u2019", "'"), ("\u2018", "'"), ("\u201c", '"'), ("\u201d", '"'),
+                 ("\\n", " ")):
+        raw = raw.replace(a, b)
+    return re.sub(r"\s+", " ", raw)
+
+
+def _built_text(root: Path) -> dict[Path, str]:
+    files = [p for p in root.rglob("*")
+             if p.suffix in {".html", ".js", ".ipynb", ".md", ".txt"} and p.is_file()
+             and "_static" not in p.relative_to(root).parts]
+    return {p: _page_text(p) for p in files}
+
+
+def test_notebooks_have_solutions() -> None:
+    sols = _blocks("solution")
+    assert len(sols) >= 20, f"only {len(sols)} solutions found in the notebooks"
+    assert len(_blocks("exercise")) >= len(sols)
+
+
+def test_student_edition_has_no_solution_text(student: Path) -> None:
+    built = _built_text(student)
+    leaks = []
+    for nb, body in _blocks("solution"):
+        probe = _probe(body)
+        where = [p.relative_to(student).as_posix() for p, t in built.items() if probe in t]
+        if where:
+            leaks.append(f"{nb}: {probe[:60]!r} in {where}")
+    assert not leaks, "solution text in the student edition:\n" + "\n".join(leaks)
+
+
+def test_student_edition_keeps_the_exercises(student: Path) -> None:
+    built = "\n".join(_built_text(student).values())
+    missing = [f"{nb}: {_probe(body)[:60]!r}" for nb, body in _blocks("exercise")
+               if _probe(body) not in built]
+    assert not missing, "exercises missing from the student edition:\n" + "\n".join(missing)
+    assert "Solution to" not in built
+
+
+def test_probe_finds_the_solutions_in_the_instructor_edition(instructor: Path) -> None:
+    """The control: the same probes find every solution in the edition that has them."""
+    pages = "\n".join(t for p, t in _built_text(instructor).items() if p.suffix == ".html")
+    missing = [f"{nb}: {_probe(body)[:60]!r}" for nb, body in _blocks("solution")
+               if _probe(body) not in pages]
+    assert not missing, "solutions not found in the instructor edition:\n" + "\n".join(missing)
+
+
+# --------------------------------------------------------------------------------------------
+# Solution stripping
+# --------------------------------------------------------------------------------------------
+
+
+def test_strip_solutions_cases() -> None:
+    text = (
+        "Intro\n\n```{exercise}\n:label: ex-a-1\nQuestion one.\n```\n\n"
+        "````{solution} ex-a-1\n:class: dropdown\nAnswer one.\n```python\nx = 1\n```\nEnd one.\n````\n"
+        "Between\n\n:::{solution} ex-a-2\nAnswer two.\n:::\n"
+        "```{solution-start} ex-a-3\n```\nAnswer three.\n```{solution-end}\n```\nAfter\n"
+    )
+    out, n = fivebar_build.strip_solutions(text)
+    assert n == 3
+    for gone in ("Answer one", "x = 1", "End one", "Answer two", "Answer three", "solution"):
+        assert gone not in out
+    for kept in ("Intro", "Question one.", "Between", "After", "{exercise}"):
+        assert kept in out
+    with pytest.raises(ValueError, match="unclosed"):
+        fivebar_build.strip_solutions("```{solution} ex\nno end\n")
+    with pytest.raises(ValueError, match="solution-end"):
+        fivebar_build.strip_solutions("```{solution-start} ex\n```\ntext\n")
+
+
+def test_strip_removes_every_solution_of_the_book() -> None:
+    """Stripping the notebooks leaves none of the solutions markdown-it finds in them."""
+    found = _blocks("solution")
+    removed, leftover = 0, []
+    for nb_path in sorted((ROOT / "book").glob("*.ipynb")):
+        nb = json.loads(nb_path.read_text())
+        removed += fivebar_build.strip_notebook_solutions(nb)
+        text = re.sub(r"\s+", " ", " ".join("".join(c["source"]) for c in nb["cells"]))
+        leftover += [_probe(body) for name, body in found
+                     if name == nb_path.name and _probe(body) in text]
+    assert removed == len(found)
+    assert not leftover
+
+
+# --------------------------------------------------------------------------------------------
+# Launch buttons
+# --------------------------------------------------------------------------------------------
+
+_CHAPTER = {
+    "cells": [
+        {"cell_type": "markdown", "id": "a", "metadata": {}, "source": ["# A chapter\n", "\n", "Text.\n"]},
+        {"cell_type": "code", "id": "b", "execution_count": 1, "metadata": {}, "outputs": [],
+         "source": ["x = 1"]},
+    ],
+    "metadata": {"kernelspec": {"display_name": "Python 3", "language": "python",
+                                "name": "python3"}},
+    "nbformat": 4, "nbformat_minor": 5,
+}
+
+
+def _build_one_chapter(tmp: Path, repository: dict | None, launch: dict | None) -> str:
+    """Build a one-chapter book with the book's _config.yml (overridden); return the page."""
+    from jupyter_book.sphinx import build_sphinx
+
+    src = tmp / "src"
+    (src / "book").mkdir(parents=True)
+    (src / "book" / "intro.md").write_text("# Intro\n\nText.\n")
+    (src / "book" / "chapter.ipynb").write_text(json.dumps(_CHAPTER))
+    (src / "_toc.yml").write_text(
+        "format: jb-book\nroot: book/intro\nchapters:\n  - file: book/chapter\n")
+    config = yaml.safe_load((ROOT / "_config.yml").read_text())
+    config["execute"]["execute_notebooks"] = "off"
+    config["sphinx"].pop("local_extensions", None)   # not needed for the theme's buttons
+    config.pop("bibtex_bibfiles", None)
+    config["only_build_toc_files"] = True
+    if repository:
+        config["repository"].update(repository)
+    if launch:
+        config["launch_buttons"].update(launch)
+    (src / "_config.yml").write_text(yaml.safe_dump(config, sort_keys=False))
+    out = tmp / "html"
+    result = build_sphinx(src, out, use_external_toc=True, noconfig=True,
+                          path_config=str(src / "_config.yml"),
+                          confoverrides={"external_toc_path": (src / "_toc.yml").as_posix(),
+                                         "latex_individualpages": False},
+                          doctreedir=tmp / ".doctrees", builder="html", quiet=True,
+                          really_quiet=True)
+    assert result == 0, "the one-chapter build failed"
+    return (out / "book" / "chapter.html").read_text()
+
+
+def test_no_launch_buttons_as_distributed(tmp_path: Path) -> None:
+    page = _build_one_chapter(tmp_path, None, None)
+    assert "mybinder" not in page and "hub/user-redirect" not in page
+    assert "launch-buttons" not in page
+
+
+def test_launch_buttons_appear_with_repository_url(tmp_path: Path) -> None:
+    page = _build_one_chapter(
+        tmp_path,
+        {"url": "https://github.com/example/fivebar", "branch": "main"},
+        {"binderhub_url": "https://mybinder.org", "jupyterhub_url": "https://hub.example.edu"})
+    links = unquote(html.unescape(" ".join(re.findall(r'href="([^"]+)"', page))))
+    assert "https://mybinder.org/v2/gh/example/fivebar/main?urlpath=lab/tree/book/chapter.ipynb" in links
+    assert ("https://hub.example.edu/hub/user-redirect/git-pull?repo=https://github.com/example/fivebar"
+            "&urlpath=lab/tree/fivebar/book/chapter.ipynb") in links
+    # Plain links: nothing from another host is loaded by the page itself.
+    assert not re.search(r'<script[^>]+src="https?://', page)
+
+
+# --------------------------------------------------------------------------------------------
+# Version
+# --------------------------------------------------------------------------------------------
+
+
+def test_version_is_the_same_everywhere() -> None:
+    import fivebar
+
+    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text())["version"]
+    pyproject = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+    run = (ROOT / "book" / "run.md").read_text()
+    stated = re.search(r"This is version \*\*([^*]+)\*\*", run)
+    assert stated, "book/run.md does not state the version"
+    cited = re.search(r"version ([0-9][^ ]*) \(Jupyter Book", run)
+    assert {fivebar.__version__, str(cff), pyproject, stated.group(1), cited.group(1)} == {str(cff)}
