@@ -215,8 +215,6 @@ _CHAPTER = {
 
 def _build_one_chapter(tmp: Path, repository: dict | None, launch: dict | None) -> str:
     """Build a one-chapter book with the book's _config.yml (overridden); return the page."""
-    from jupyter_book.sphinx import build_sphinx
-
     src = tmp / "src"
     (src / "book").mkdir(parents=True)
     (src / "book" / "intro.md").write_text("# Intro\n\nText.\n")
@@ -234,13 +232,24 @@ def _build_one_chapter(tmp: Path, repository: dict | None, launch: dict | None) 
         config["launch_buttons"].update(launch)
     (src / "_config.yml").write_text(yaml.safe_dump(config, sort_keys=False))
     out = tmp / "html"
-    result = build_sphinx(src, out, use_external_toc=True, noconfig=True,
-                          path_config=str(src / "_config.yml"),
-                          confoverrides={"external_toc_path": (src / "_toc.yml").as_posix(),
-                                         "latex_individualpages": False},
-                          doctreedir=tmp / ".doctrees", builder="html", quiet=True,
-                          really_quiet=True)
-    assert result == 0, "the one-chapter build failed"
+    # In a fresh interpreter: Sphinx keeps registries (source parsers, roles) per process, and
+    # an earlier in-process build by another test (tests/test_course.py) breaks this one.
+    script = tmp / "build.py"
+    script.write_text(
+        "import sys\n"
+        "from pathlib import Path\n"
+        "from jupyter_book.sphinx import build_sphinx\n"
+        f"src, out, tmp = Path({str(src)!r}), Path({str(out)!r}), Path({str(tmp)!r})\n"
+        "result = build_sphinx(src, out, use_external_toc=True, noconfig=True,\n"
+        "                      path_config=str(src / '_config.yml'),\n"
+        "                      confoverrides={'external_toc_path': (src / '_toc.yml').as_posix(),\n"
+        "                                     'latex_individualpages': False},\n"
+        "                      doctreedir=tmp / '.doctrees', builder='html', quiet=True,\n"
+        "                      really_quiet=True)\n"
+        "print(repr(result))\n"
+        "sys.exit(0 if result == 0 else 1)\n")
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, cwd=tmp)
+    assert proc.returncode == 0, f"the one-chapter build failed: {proc.stdout[-2000:]} {proc.stderr[-2000:]}"
     return (out / "book" / "chapter.html").read_text()
 
 
