@@ -250,6 +250,7 @@ label.overlay { display: none !important; }
   margin: 0 !important; padding: 0 !important; display: block !important; }
 #jb-print-docs-body { break-after: page; }
 .fivebar-print-subtitle { font-size: 1.2em; margin: 0.5em 0 2em 0; color: #333; }
+.fivebar-print-contents { list-style: none; padding-left: 0; line-height: 1.6; }
 .toctree-wrapper > section { break-before: page; }
 h1, h2, h3, h4 { break-after: avoid; }
 figure, img, .cell_output img, mjx-container[display="true"] { break-inside: avoid; }
@@ -273,8 +274,30 @@ PREPARE_JS = r"""
     p.textContent = subtitle;
     title.after(p);
   }
-  return Array.from(document.querySelectorAll('.toctree-wrapper > section > h2'))
-      .map(h => h.textContent.replace(/#\s*$/, '').trim());
+  const heads = Array.from(document.querySelectorAll('.toctree-wrapper > section > h2'));
+  const titles = heads.map(h => h.textContent.replace(/#\s*$/, '').trim());
+  // The contents page: the chapters as printed, each a link to its section (the theme's
+  // print table of contents lists the first page's own sections, not the book's chapters).
+  const toc = document.querySelector('#jb-print-toc');
+  if (toc) {
+    toc.innerHTML = '';
+    const h = document.createElement('h2');
+    h.textContent = 'Contents';
+    toc.appendChild(h);
+    const ul = document.createElement('ul');
+    ul.className = 'fivebar-print-contents';
+    heads.forEach((head, i) => {
+      const li = document.createElement('li');
+      const a = document.createElement('a');
+      const sec = head.closest('section');
+      a.href = '#' + (sec && sec.id ? sec.id : '');
+      a.textContent = titles[i];
+      li.appendChild(a);
+      ul.appendChild(li);
+    });
+    toc.appendChild(ul);
+  }
+  return titles;
 }
 """
 
