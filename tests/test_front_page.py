@@ -157,18 +157,18 @@ def test_unstable_discrete_orbit_E26():
     # "S >= 800 is stable": the stored multiplier study of the chapter
     (study,) = [t for t in table_with("06_newmark", "Newmark (0.5, 0.25)")
                 if "generalised-alpha 0.8" in t.head[0][-1][1]]
-    by_s = dict(zip(study.row_labels(), study.column("Newmark (0.5, 0.25)")))
+    by_s = dict(zip(study.column("S"), study.column("Newmark (0.5, 0.25)")))
     stable = [int(s) for s, mu in by_s.items() if float(mu) < 1]
     assert stable and min(stable) == 800 and all(float(by_s[s]) < 1 for s in by_s if int(s) >= 800)
     assert r"$S \ge 800$ is stable" in text
 
 
 def test_spin_softening_shift_E28():
-    (cmp,) = table_with("07_excitation", "offset, mean (3.3)", "offset, effective")
-    mean = [abs(pct(x)) for x in cmp.column("offset, mean (3.3)")]
-    eff = [abs(pct(x)) for x in cmp.column("offset, effective")]
-    (soft,) = table_with("07_excitation", "h_r")
-    h1 = float(soft.column("h_r")[0])
+    (cmp,) = table_with("07_excitation", "offset, mean (3.3) (%)", "offset, effective (%)")
+    mean = [abs(float(x)) for x in cmp.column("offset, mean (3.3) (%)")]
+    eff = [abs(float(x)) for x in cmp.column("offset, effective (%)")]
+    (soft,) = table_with("07_excitation", "h_r (–)")
+    h1 = float(soft.column("h_r (–)")[0])
     text = _finding("{erratum}`E28`")
     assert f"{min(mean):.0f}-{max(mean):.0f} % above the response peaks" in text, (mean, text)
     assert f"within {max(eff):.1f} %" in text, (eff, text)

@@ -172,10 +172,19 @@ def test_resonance_speeds_solve_their_conditions(params):
 
 
 def test_campbell_diagram(params):
+    from fivebar.plotting import LABELS, MIN_FONT_PT
+
     ax = campbell_diagram(params, np.linspace(100, 3000, 50), n_modes=2)
-    assert ax.get_xlabel() == "crank speed (r/min)" and ax.get_ylabel() == "frequency (Hz)"
+    assert ax.get_xlabel() == LABELS["crank_speed"] and ax.get_ylabel() == LABELS["frequency"]
     assert len(ax.get_legend().get_texts()) == 4
-    plt.close(ax.figure)
+    # the book's style: no text below MIN_FONT_PT, the legend outside the data (below the axes)
+    fig = ax.figure
+    fig.canvas.draw()
+    texts = [*ax.texts, *ax.get_legend().get_texts(), ax.xaxis.label, ax.yaxis.label]
+    assert min(t.get_fontsize() for t in texts) >= MIN_FONT_PT
+    box, leg = ax.get_window_extent(), ax.get_legend().get_window_extent()
+    assert leg.y1 <= box.y0 + 1, (leg, box)
+    plt.close(fig)
     with pytest.raises(ResonanceError):
         campbell_diagram(params, [100.0])
 

@@ -355,7 +355,7 @@ def draw_linkage(
     return out
 
 
-def campbell_plot(data, ax=None, *, mark: bool = True, effective: bool = True):
+def campbell_plot(data, ax=None, *, mark: bool = True, effective: bool = True, legend: str | None = "below"):
     r"""Draw a Campbell diagram from :func:`fivebar.resonance.campbell_data`.
 
     ``ax = campbell_plot(campbell_data(params, speeds))``.  Each mode is a band from the lowest
@@ -364,13 +364,15 @@ def campbell_plot(data, ax=None, *, mark: bool = True, effective: bool = True):
     circles their crossings with each mean (the primary and superharmonic resonance speeds of
     :func:`fivebar.resonance.resonance_speeds`).  ``effective`` adds the effective frequencies
     :math:`\sqrt{\bar\omega_r^2 + h_r\Omega^2}` as dashed curves, their crossings as filled
-    dots.  Returns the matplotlib Axes.
+    dots.  In the book's style: axis labels from :data:`LABELS`, text at :data:`MIN_FONT_PT`,
+    the legend outside the data (``legend`` = ``"below"`` or ``"right"``, see
+    :func:`legend_outside`; ``None`` draws none).  Returns the matplotlib Axes.
     """
     import matplotlib.pyplot as plt
 
     x, lo, mean, hi, h = data.speeds_rpm, data.low, data.mean, data.high, data.spin_softening
     if ax is None:
-        _, ax = plt.subplots(figsize=(8, 5))
+        _, ax = plt.subplots(figsize=figsize(aspect=0.6))
     xs = np.array([0.0, x.max()])
     for r in range(len(mean)):
         c = f"C{r}"
@@ -382,17 +384,23 @@ def campbell_plot(data, ax=None, *, mark: bool = True, effective: bool = True):
         for r in range(len(mean)):
             ok = np.isfinite(fe[:, r])
             ax.plot(xx[ok], fe[ok, r], color=f"C{r}", ls="--", lw=1.2, label=f"mode {r + 1}: effective, h = {h[r]:.2f}")
+    last_top = None  # the rays that leave through the top crowd: label one every 8 % of the width
     for k in range(1, data.harmonics + 1):
         ax.plot(xs, k * xs / 60, color="0.4", lw=0.8, ls=":")
         xe = min(x.max(), hi.max() * 1.15 * 60 / k)
-        ax.annotate(f"{k}Ω", (xe, k * xe / 60), fontsize=7, color="0.3", xytext=(2, 0), textcoords="offset points")
+        crowded = xe < x.max() and last_top is not None and last_top - xe < 0.08 * (x.max() - x.min())
+        if not crowded:
+            last_top = xe if xe < x.max() else last_top
+            ax.annotate(f"${k}\\Omega$", (xe, k * xe / 60), fontsize=MIN_FONT_PT, color="0.3", xytext=(2, 0),
+                        textcoords="offset points")
         if mark:
             ax.plot(*data.crossings(k), "o", mfc="none", mec="k", ms=6)
             if effective:
                 ax.plot(*data.crossings(k, effective=True), "o", color="k", ms=4)
     ax.set_xlim(x.min(), x.max())
     ax.set_ylim(0, hi.max() * 1.15)
-    ax.set_xlabel("crank speed (r/min)")
-    ax.set_ylabel("frequency (Hz)")
-    ax.legend(fontsize=8, loc="upper left")
+    ax.set_xlabel(LABELS["crank_speed"])
+    ax.set_ylabel(LABELS["frequency"])
+    if legend is not None:
+        legend_outside(ax, legend)
     return ax
