@@ -189,3 +189,23 @@ def test_thin_section_nonlinear_shooting_starts_from_the_nonlinear_static_state(
     rows = json.loads((Path(__file__).parents[1] / "data" / "multibody_sweep.json").read_text())["rows"]
     ex = next(r["exudyn"]["L2_transverse"] for r in rows if r["bending_depth_mm"] == 2.0 and r["rpm"] == 30)
     assert ss.peak_to_peak("L2") == pytest.approx(ex, rel=0.015)
+
+
+def test_model_sampled_once_for_all_speeds_equals_direct_sampling():
+    """M, C, K are speed independent at the step times and F scales with the speed squared:
+    the cached arrays of a second speed must equal sampling that speed afresh."""
+    from fivebar import dynamics as dmod
+
+    p = load_params()
+    dmod._SAMPLE_CACHE.clear()
+    LinkageDynamics(p, crank_speed_rpm=60, steps_per_period=50, motors=False)
+    assert len(dmod._SAMPLE_CACHE) == 1
+    d = LinkageDynamics(p, crank_speed_rpm=437, steps_per_period=50, motors=False)
+    assert len(dmod._SAMPLE_CACHE) == 1  # served from the cache
+    M, C, K, F = d._sample(d.t)  # direct
+    sd = d.step_data
+    for X, Y in ((sd.M, M), (sd.C, C), (sd.K, K), (sd.F, F)):
+        assert np.allclose(X, Y, rtol=1e-10, atol=1e-12 * np.abs(Y).max())
+    assert np.abs(F).max() > 0  # the load is not trivially zero
+    LinkageDynamics(p, crank_speed_rpm=60, steps_per_period=50, motors=True)
+    assert len(dmod._SAMPLE_CACHE) == 2  # motors are part of the key

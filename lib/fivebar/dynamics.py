@@ -51,6 +51,10 @@ from .params import Params
 
 __all__ = ["LinkageDynamics", "modal_damping"]
 
+#: (params without the speed, S, mesh, motors) -> (M, C, K, F / Omega^2) at the S step times
+_SAMPLE_CACHE: dict = {}
+_SAMPLE_CACHE_SIZE = 4
+
 
 def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
     """C = M Phi diag(2 zeta omega) Phi^T M for one frozen configuration (N s/m).
@@ -120,7 +124,7 @@ class LinkageDynamics:
         t = np.arange(self.steps) * self.dt
         self.t = t
         with _blas_threads(1):  # many small dense problems: threaded BLAS only adds overhead
-            M, C, K, F = self._sample(t)
+            M, C, K, F = self._sampled(t, elements_per_link, motors)
             # the nonlinear force's view of the configuration at the S step times (the element
             # rotations), so that f_nl(u, t) at a step time does no kinematics
             self._geometry = None if self._nl is None else self._nl.geometry(*self.crank_angles(t))
@@ -131,6 +135,35 @@ class LinkageDynamics:
         """Crank angles theta1, theta4 (rad) at times t (s)."""
         th1, _, _, th4, _, _ = crank_laws(self.params, t)
         return th1, th4
+
+    def _sampled(self, t: NDArray, elements_per_link, motors) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """M, C, K, F at the S step times, from the speed-independent cache when it serves.
+
+        At constant crank speed the step times k T / S meet the same crank angles at every
+        speed, so M, K, the frozen modes and C do not depend on the speed, and F = -M u_r''
+        scales with its square.  The cache key is the parameter set with the speed taken out,
+        S, the mesh and the motors (no external force P); the arrays are read-only.
+        """
+        if self._P is not None:
+            return self._sample(t)
+        p = self.params
+        try:
+            key = (p.replace(crank_speed_rpm=1.0), self.steps, elements_per_link, bool(motors))
+            hash(key)
+        except TypeError:  # an unhashable parameter set: no cache
+            return self._sample(t)
+        W2 = p.crank_speed ** 2
+        hit = _SAMPLE_CACHE.pop(key, None)
+        if hit is None:
+            M, C, K, F = self._sample(t)
+            for X in (M, C, K):
+                X.flags.writeable = False
+            hit = (M, C, K, F / W2)
+        _SAMPLE_CACHE[key] = hit  # most recent last
+        while len(_SAMPLE_CACHE) > _SAMPLE_CACHE_SIZE:
+            _SAMPLE_CACHE.pop(next(iter(_SAMPLE_CACHE)))
+        M, C, K, Fn = hit
+        return M, C, K, Fn * W2
 
     def _sample(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         laws = crank_laws(self.params, t)
