@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .eigen import frozen_modes
-from .errors import InputError
+from .errors import ComputationError, InputError
 from .assembly import Model, build_model
 from .kinematics import crank_laws, rigid_state
 from .newmark import PeriodicStepData, _blas_threads
@@ -50,6 +50,10 @@ from .nonlinear import ElementGeometry, NonlinearForce
 from .params import Params
 
 __all__ = ["LinkageDynamics", "modal_damping"]
+
+#: (params without the speed, S, mesh, motors) -> (M, C, K, F / Omega^2) at the S step times
+_SAMPLE_CACHE: dict = {}
+_SAMPLE_CACHE_SIZE = 4
 
 
 def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
@@ -120,7 +124,7 @@ class LinkageDynamics:
         t = np.arange(self.steps) * self.dt
         self.t = t
         with _blas_threads(1):  # many small dense problems: threaded BLAS only adds overhead
-            M, C, K, F = self._sample(t)
+            M, C, K, F = self._sampled(t, elements_per_link, motors)
             # the nonlinear force's view of the configuration at the S step times (the element
             # rotations), so that f_nl(u, t) at a step time does no kinematics
             self._geometry = None if self._nl is None else self._nl.geometry(*self.crank_angles(t))
@@ -131,6 +135,35 @@ class LinkageDynamics:
         """Crank angles theta1, theta4 (rad) at times t (s)."""
         th1, _, _, th4, _, _ = crank_laws(self.params, t)
         return th1, th4
+
+    def _sampled(self, t: NDArray, elements_per_link, motors) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """M, C, K, F at the S step times, from the speed-independent cache when it serves.
+
+        At constant crank speed the step times k T / S meet the same crank angles at every
+        speed, so M, K, the frozen modes and C do not depend on the speed, and F = -M u_r''
+        scales with its square.  The cache key is the parameter set with the speed taken out,
+        S, the mesh and the motors (no external force P); the arrays are read-only.
+        """
+        if self._P is not None:
+            return self._sample(t)
+        p = self.params
+        try:
+            key = (p.replace(crank_speed_rpm=1.0), self.steps, elements_per_link, bool(motors))
+            hash(key)
+        except TypeError:  # an unhashable parameter set: no cache
+            return self._sample(t)
+        W2 = p.crank_speed ** 2
+        hit = _SAMPLE_CACHE.pop(key, None)
+        if hit is None:
+            M, C, K, F = self._sample(t)
+            for X in (M, C, K):
+                X.flags.writeable = False
+            hit = (M, C, K, F / W2)
+        _SAMPLE_CACHE[key] = hit  # most recent last
+        while len(_SAMPLE_CACHE) > _SAMPLE_CACHE_SIZE:
+            _SAMPLE_CACHE.pop(next(iter(_SAMPLE_CACHE)))
+        M, C, K, Fn = hit
+        return M, C, K, Fn * W2
 
     def _sample(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         laws = crank_laws(self.params, t)
@@ -210,3 +243,57 @@ class LinkageDynamics:
         """Quasi-static deflection K(t)^{-1} F(t) of the linear subsystem (m, rad), (..., n)."""
         _, _, K, F = self._sample(np.asarray(t, float))
         return np.linalg.solve(K, F[..., None])[..., 0]
+
+    def static_equilibrium(self, t: float, max_iter: int = 50) -> NDArray:
+        """Quasi-static deflection of the full subsystem at time t (s): K u + f_nl(u, t) = F.
+
+        For the linear model this is :meth:`quasi_static`.  With the nonlinearity, Newton's
+        method with load continuation (the load F raised in steps from 0, each step's Newton
+        started from the last) and a backtracking line search on the residual: with a thin
+        section the linear deflection K^-1 F can lie where f_nl is a hundred times F (2 mm
+        side at 30 r/min), a start from which the first time step's Newton iteration diverges.
+        """
+        x = float(t) / self.dt
+        k = round(x)
+        if abs(x - k) <= 1e-9 * max(1.0, abs(x)):  # a step time: the sampled matrices
+            K, F = self.step_data.K[k % self.steps], self.step_data.F[k % self.steps]
+        else:
+            _, _, K, F = self._sample(np.asarray(float(t)))
+        if self._nl is None:
+            return np.linalg.solve(K, F)
+        scale = float(np.linalg.norm(F)) + 1e-300
+
+        def residual(u, lam):
+            f, Kt = self.nonlinear(u, t)
+            return K @ u + f - lam * F, Kt
+
+        u = np.zeros(self.n)
+        lam, dlam = 0.0, 0.25
+        while lam < 1.0:
+            target = min(1.0, lam + dlam)
+            v = u.copy()
+            for _ in range(max_iter):
+                r, Kt = residual(v, target)
+                rn = float(np.linalg.norm(r))
+                if rn <= 1e-12 * scale:
+                    break
+                dv = np.linalg.solve(K + Kt, r)
+                step = 1.0
+                while step > 1e-4:  # backtracking: accept a step that lowers the residual
+                    trial = v - step * dv
+                    if float(np.linalg.norm(residual(trial, target)[0])) < rn:
+                        break
+                    step *= 0.5
+                v = trial
+            else:
+                rn = float(np.linalg.norm(residual(v, target)[0]))
+            if rn <= 1e-9 * scale:
+                u, lam = v, target
+                dlam = min(2.0 * dlam, 1.0)
+            else:
+                dlam *= 0.25
+                if dlam < 1e-6:
+                    raise ComputationError(
+                        f"no quasi-static equilibrium at t = {t:.6g} s: the load continuation stalled at "
+                        f"{lam:.3g} of the load (residual {rn:.3e} of |F| = {scale:.3e})")
+        return u
