@@ -501,6 +501,13 @@ def setup(app):
     """Sphinx entry point: the ``{fivebar-pdf}`` role."""
     app.add_role("fivebar-pdf", _pdf_role)
     app.connect("env-updated", _drop_stale_pdf_copies)
+    # myst-nb writes folded code cells (tag hide-input) for the html builder only; the
+    # singlehtml build of the PDF needs the same writer (the print CSS unfolds them).
+    from myst_nb.sphinx_ import HideCodeCellNode, depart_HideCellInput, visit_HideCellInput
+
+    app.add_node(HideCodeCellNode, override=True,
+                 html=(visit_HideCellInput, depart_HideCellInput),
+                 singlehtml=(visit_HideCellInput, depart_HideCellInput))
     return {"version": "1.0", "parallel_read_safe": True, "parallel_write_safe": True}
 
 
