@@ -18,9 +18,7 @@ Two groups of tests on ``_build/html``:
   SVG), every mention of an erratum (``E26``) in the prose a link, and chapter titles
   numbered.  A full-page screenshot of every page at both sizes goes to
   ``_build/screenshots/`` and every violation, naming page, element and measured value, to
-  ``_build/screenshots/violations.json``.  The chapters listed in :data:`PHASE_TWO` are
-  restyled in a second step: their violations are reported as expected failures (xfail),
-  every other page must pass.
+  ``_build/screenshots/violations.json``.  Every page must pass.
 
 The book is built by ``make book`` (``make test`` depends on it).  If ``_build/html`` is
 missing or older than its sources, the ``book`` fixture runs ``make book`` itself.  Under CI
@@ -467,15 +465,6 @@ def test_screenshots(book, server, browser):
 #: Window sizes of the reader's-edition checks: a desktop and a phone.
 VIEWPORTS = {"1400": {"width": 1400, "height": 900}, "390": {"width": 390, "height": 844}}
 
-#: Chapters whose restyle (hidden asserts, figures in the book style, linked errata mentions)
-#: is the second step of the reader's edition: their violations are expected failures until
-#: then.  Remove a chapter from this set when it passes.
-PHASE_TWO = {
-    "08_multiple_scales", "09_figure6", "10_control", "11_multibody",
-    # the API reference: display equations of module docstrings wider than the column at
-    # 1400 px (they scroll in their box); to be broken over lines in the docstrings
-    "api",
-}
 
 
 def _toc_pages() -> list[str]:
@@ -647,8 +636,6 @@ def test_page_reads_as_a_book(book, server, browser, doc, size):
     lines += [f"  [{v['check']}] {v['element']}: {v['value']}" for v in found[:60]]
     if len(found) > 60:
         lines.append(f"  ... and {len(found) - 60} more (see _build/screenshots/violations.json)")
-    if doc in PHASE_TWO:
-        pytest.xfail("\n".join(lines))
     pytest.fail("\n".join(lines), pytrace=False)
 
 

@@ -14,8 +14,8 @@ absolute angle of a cross-section of shaft :math:`i` is
 
 .. math::
 
-    \Theta_i(x, t) = \varphi_i(t) + U_3(t)\,\psi_3(x) + U_4(t)\,\psi_4(x),
-    \qquad U_4 = s_A - \varphi_1 \quad (U_8 = s_E - \varphi_2 \text{ for motor 2}),
+    & \Theta_i(x, t) = \varphi_i(t) + U_3(t)\,\psi_3(x) + U_4(t)\,\psi_4(x), \\
+    & U_4 = s_A - \varphi_1 \quad (U_8 = s_E - \varphi_2 \text{ for motor 2}),
 
 the coupling-end twist being the crank-root rotation relative to the rotor (the crank clamped
 to the shaft, erratum E6).  The generalised coordinates are
@@ -33,8 +33,8 @@ couple to the rest (chapter on the dynamics, :mod:`fivebar.dynamics`) and are le
 
 .. math::
 
-    T_i = \tfrac12 J_0\dot\varphi_i^2 + \tfrac12\int_0^l \rho_s J_p \dot\Theta_i^2\,dx
-        = \tfrac12 (J_0 + \rho_s J_p l)\,\dot\varphi_i^2
+    T_i ={}& \tfrac12 J_0\dot\varphi_i^2 + \tfrac12\int_0^l \rho_s J_p \dot\Theta_i^2\,dx \\
+        ={}& \tfrac12 (J_0 + \rho_s J_p l)\,\dot\varphi_i^2
           + \dot\varphi_i\, \mathbf b^\top \dot{\mathbf U}
           + \tfrac12 \dot{\mathbf U}^\top \bar{\mathbf M}_{1,\mathrm{tor}} \dot{\mathbf U},
     \qquad b_k = \int_0^l \rho_s J_p \psi_k\, dx ,

@@ -11,18 +11,18 @@ the rotor angle :math:`\beta = (1 - s)\,\omega_0 t` with the *mechanical* synchr
 
 .. math::
 
-    F_{\pm s} = \tfrac12 (1 \pm a_e) F_m, \qquad
+    F_{\pm s} ={}& \tfrac12 (1 \pm a_e) F_m, \qquad
     F_{\pm r} = \tfrac12 \frac{m_2}{m_1}
-        \frac{x_m}{\sqrt{(r'/s_\pm)^2 + x'^2}} (1 \pm a_e) F_m, \qquad
-    s_+ = s,\ s_- = 2 - s, \qquad F_m = \frac{0.9\, W K_w I}{p}, \quad a_e = U_k / U_{kn},
+        \frac{x_m}{\sqrt{(r'/s_\pm)^2 + x'^2}} (1 \pm a_e) F_m, \\
+    & s_+ = s,\ s_- = 2 - s, \qquad F_m = \frac{0.9\, W K_w I}{p}, \quad a_e = U_k / U_{kn},
 
 and the air-gap MMF of (2.3)
 
 .. math::
 
-    F(\alpha, t) = F_{+s}\cos(\omega_e t - p\alpha) + F_{-s}\cos(\omega_e t + p\alpha)
-        + F_{+r}\cos(\omega_e t - p\alpha - \varphi_{10})
-        + F_{-r}\cos(\omega_e t + p\alpha - \varphi_{20})
+    F(\alpha, t) ={}& F_{+s}\cos(\omega_e t - p\alpha) + F_{-s}\cos(\omega_e t + p\alpha)
+        + F_{+r}\cos(\omega_e t - p\alpha - \varphi_{10}) \\
+        &+ F_{-r}\cos(\omega_e t + p\alpha - \varphi_{20})
         = \operatorname{Re}\bigl[C(t)\, e^{-ip\alpha}\bigr],
 
     C(t) = P e^{i\omega_e t} + \bar N e^{-i\omega_e t}, \quad
@@ -53,10 +53,10 @@ mechanical potential is :math:`V = -W'`.  To second order in :math:`(x, y)`,
 
 .. math::
 
-    \bar K_{12} = -\frac{R L \Lambda}{2\sigma^2} \int_0^{2\pi} F^2
+    \bar K_{12} ={}& -\frac{R L \Lambda}{2\sigma^2} \int_0^{2\pi} F^2
         \begin{bmatrix} 1 + \cos 2\alpha & \sin 2\alpha \\
-                        \sin 2\alpha & 1 - \cos 2\alpha \end{bmatrix} d\alpha, \qquad
-    \bar k_{01} = -\frac{R L \Lambda}{2\sigma} \int_0^{2\pi} F^2
+                        \sin 2\alpha & 1 - \cos 2\alpha \end{bmatrix} d\alpha, \\
+    \bar k_{01} ={}& -\frac{R L \Lambda}{2\sigma} \int_0^{2\pi} F^2
         \begin{bmatrix} \cos\alpha \\ \sin\alpha \end{bmatrix} d\alpha, \qquad
     \Lambda = \mu_0 / \sigma .
 
@@ -64,10 +64,10 @@ The integrals are closed forms in :math:`C(t)`:
 
 .. math::
 
-    \int F^2 d\alpha = \pi |C|^2, \quad
+    & \int F^2 d\alpha = \pi |C|^2, \quad
     \int F^2 \cos 2\alpha\, d\alpha + i \int F^2 \sin 2\alpha\, d\alpha
-        = \tfrac{\pi}{2} C^2 \ (p = 1), \ 0 \ (p \ge 2), \quad
-    \int F^2 \cos\alpha\, d\alpha = \int F^2 \sin\alpha\, d\alpha = 0 .
+        = \tfrac{\pi}{2} C^2 \ (p = 1), \ 0 \ (p \ge 2), \\
+    & \int F^2 \cos\alpha\, d\alpha = \int F^2 \sin\alpha\, d\alpha = 0 .
 
 So :math:`\bar{\mathbf k}_{01} \equiv 0` for every integer :math:`p` (a centred rotor feels no
 net pull; the static pull is :math:`-\bar K_{12}\bar{\mathbf e}` of (2.7)), and

@@ -16,10 +16,9 @@ interpolation condition at :math:`e = 1`).  The consistent matrices (A.8) are
 
 .. math::
 
-    M_{ij} = \rho A \int_0^L \gamma_i \gamma_j \, d\bar x
-             + \rho I \int_0^L \gamma_i' \gamma_j' \, d\bar x \ (\text{transverse only}),
-    \qquad
-    K_{ij} = EA \int_0^L \gamma_i' \gamma_j' \, d\bar x \ (\text{axial}),\
+    M_{ij} ={}& \rho A \int_0^L \gamma_i \gamma_j \, d\bar x
+             + \rho I \int_0^L \gamma_i' \gamma_j' \, d\bar x \ (\text{transverse only}), \\
+    K_{ij} ={}& EA \int_0^L \gamma_i' \gamma_j' \, d\bar x \ (\text{axial}),\
              EI \int_0^L \gamma_i'' \gamma_j'' \, d\bar x \ (\text{transverse}),
 
 integrated exactly by Gauss-Legendre quadrature (:func:`gauss_points`; the integrands are

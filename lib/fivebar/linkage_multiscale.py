@@ -63,9 +63,9 @@ class ModalModel:
 
     .. math::
 
-        \ddot\eta_r + \bar\omega_r^2\eta_r = \sum_{k=0}^m f_{rk}\cos(k\Omega t+\tau_{rk})
-        - 2\zeta\bar\omega_r\dot\eta_r - \alpha_{rr}\eta_r
-        - \sum_{k=1}^m W_{rk}\cos(k\Omega t+\psi_{rk})\,\eta_r
+        \ddot\eta_r + \bar\omega_r^2\eta_r ={}& \sum_{k=0}^m f_{rk}\cos(k\Omega t+\tau_{rk})
+        - 2\zeta\bar\omega_r\dot\eta_r - \alpha_{rr}\eta_r \\
+        &- \sum_{k=1}^m W_{rk}\cos(k\Omega t+\psi_{rk})\,\eta_r
         + \sum_{s,t}\bar\delta_{rst}\eta_s\eta_t
         + \sum_{s,t,u}\bar\gamma_{rstu}\eta_s\eta_t\eta_u ,
 

@@ -5,9 +5,9 @@ the selector :math:`\xi` of (3.5)), read
 
 .. math::
 
-    \ddot\eta_r + \omega_r^2\eta_r = \sum_j F_{rj}\cos(\Omega_j t + \tau_{rj})
-    + \varepsilon\Big(-2\zeta_r\omega_r\dot\eta_r - \sum_s \alpha_{rs}\eta_s
-    - \sum_{j,s} P^{(j)}_{rs}\cos(\Omega^P_j t + \varphi_j)\,\eta_s
+    \ddot\eta_r + \omega_r^2\eta_r ={}& \sum_j F_{rj}\cos(\Omega_j t + \tau_{rj})
+    + \varepsilon\Big(-2\zeta_r\omega_r\dot\eta_r - \sum_s \alpha_{rs}\eta_s \\
+    &- \sum_{j,s} P^{(j)}_{rs}\cos(\Omega^P_j t + \varphi_j)\,\eta_s
     + \sum_{s,t}\delta_{rst}\eta_s\eta_t
     + \sum_{s,t,u}\gamma_{rstu}\eta_s\eta_t\eta_u\Big).
 

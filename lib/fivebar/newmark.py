@@ -67,9 +67,9 @@ evaluates the equation at intermediate points, with forces interpolated between
 
 .. math::
 
-    \bar{\mathbf M}\big((1-\alpha_m)\ddot{\mathbf u}_{n+1} + \alpha_m\ddot{\mathbf u}_n\big)
-    + (1-\alpha_f)\,\mathbf g_{n+1} + \alpha_f\,\mathbf g_n = \mathbf 0,
-    \qquad \mathbf g = \mathbf C\dot{\mathbf u} + \mathbf K\mathbf u
+    & \bar{\mathbf M}\big((1-\alpha_m)\ddot{\mathbf u}_{n+1} + \alpha_m\ddot{\mathbf u}_n\big)
+    + (1-\alpha_f)\,\mathbf g_{n+1} + \alpha_f\,\mathbf g_n = \mathbf 0, \\
+    & \mathbf g = \mathbf C\dot{\mathbf u} + \mathbf K\mathbf u
         + \mathbf f_{nl}(\mathbf u) - \mathbf F,
 
 with :math:`\bar{\mathbf M} = (1-\alpha_f)\mathbf M_{n+1} + \alpha_f\mathbf M_n` (the mass at
@@ -98,9 +98,9 @@ converged step: with the converged tangent :math:`\mathbf S`,
 
 .. math::
 
-    \delta\mathbf u_{n+1} = -\mathbf S^{-1}\Big((1-\alpha_m)\bar{\mathbf M}\,\delta\mathbf a^*
-      + (1-\alpha_f)\mathbf C_{n+1}\,\delta\mathbf v^*
-      + \alpha_m\bar{\mathbf M}\,\delta\ddot{\mathbf u}_n
+    \delta\mathbf u_{n+1} ={}& -\mathbf S^{-1}\Big((1-\alpha_m)\bar{\mathbf M}\,\delta\mathbf a^*
+      + (1-\alpha_f)\mathbf C_{n+1}\,\delta\mathbf v^* \\
+      &+ \alpha_m\bar{\mathbf M}\,\delta\ddot{\mathbf u}_n
       + \alpha_f\big((\mathbf K_n+\mathbf K_{t,n})\,\delta\mathbf u_n
       + \mathbf C_n\,\delta\dot{\mathbf u}_n\big)\Big),
 

@@ -24,9 +24,9 @@ With :math:`V' = (u_5 - u_1)/L` and :math:`W' = \mathbf g^\top \mathbf q`,
 
 .. math::
 
-    f_{1,5} = \mp\frac{EA}{2L}\int W'^2, \quad
-    f_i = EA\int \big(V' W' + \tfrac12 W'^3\big) g_i, \qquad
-    K_{ij} = EA\int\big(V' + \tfrac32 W'^2\big) g_i g_j, \quad
+    & f_{1,5} = \mp\frac{EA}{2L}\int W'^2, \quad
+    f_i = EA\int \big(V' W' + \tfrac12 W'^3\big) g_i, \\
+    & K_{ij} = EA\int\big(V' + \tfrac32 W'^2\big) g_i g_j, \quad
     K_{1i,5i} = \mp\frac{EA}{L}\int W' g_i ,
 
 integrated exactly by Gauss-Legendre quadrature (10 points: the integrands are polynomials of
@@ -41,9 +41,9 @@ and the stretch :math:`V' = \mathbf a_e^\top\mathbf u_e` with
 
 .. math::
 
-    \mathbf f_e = EA\Big(\sum_p w_p\big(V' + \tfrac12 W_p'^2\big)W'_p\,\mathbf G_{ep}^\top
-        + \tfrac12\sum_p w_p W_p'^2\,\mathbf a_e\Big),\qquad
-    \mathbf K_e = EA\Big(\sum_p w_p\big(V' + \tfrac32 W_p'^2\big)\mathbf G_{ep}^\top\mathbf G_{ep}
+    \mathbf f_e ={}& EA\Big(\sum_p w_p\big(V' + \tfrac12 W_p'^2\big)W'_p\,\mathbf G_{ep}^\top
+        + \tfrac12\sum_p w_p W_p'^2\,\mathbf a_e\Big), \\
+    \mathbf K_e ={}& EA\Big(\sum_p w_p\big(V' + \tfrac32 W_p'^2\big)\mathbf G_{ep}^\top\mathbf G_{ep}
         + \mathbf a_e\mathbf c_e^\top + \mathbf c_e\mathbf a_e^\top\Big),
 
 :math:`\mathbf c_e = \sum_p w_p W'_p\mathbf G_{ep}^\top`: the rotated form of the local

@@ -8,24 +8,21 @@ The rigid linkage of Figure 1 has two degrees of freedom, the crank angles
 
 .. math::
 
-    T = \tfrac12 \sum_b \left(m_b \mathbf v_b^2 + I_b \omega_b^2\right)
+    T ={}& \tfrac12 \sum_b \left(m_b \mathbf v_b^2 + I_b \omega_b^2\right)
         + \tfrac12 J_1 \dot\theta_1^2 + \tfrac12 J_2 \dot\theta_4^2
-      = \tfrac12 \dot{\mathbf q}^\top \mathbf M(\mathbf q)\, \dot{\mathbf q},
-    \qquad
-    \mathbf M = \sum_b \left(m_b \mathbf J_b^\top \mathbf J_b + I_b \mathbf j_b^\top \mathbf j_b\right)
+      = \tfrac12 \dot{\mathbf q}^\top \mathbf M(\mathbf q)\, \dot{\mathbf q}, \\
+    \mathbf M ={}& \sum_b \left(m_b \mathbf J_b^\top \mathbf J_b + I_b \mathbf j_b^\top \mathbf j_b\right)
         + \operatorname{diag}(J_1, J_2),
 
 and Lagrange's equations (the rigid counterpart of (2.6)) give the motor torques
 
 .. math::
 
-    \boldsymbol\tau = \mathbf M(\mathbf q)\,\ddot{\mathbf q} + \mathbf h(\mathbf q, \dot{\mathbf q})
-        + \mathbf g(\mathbf q),
-    \qquad
-    \mathbf h = \dot{\mathbf M}\dot{\mathbf q} - \frac{\partial T}{\partial \mathbf q}
-      = \sum_b \left(m_b \mathbf J_b^\top \mathbf a_{b,0} + I_b \mathbf j_b^\top \alpha_{b,0}\right),
-    \qquad
-    \mathbf g = \frac{\partial V}{\partial \mathbf q} = g \sum_b m_b \mathbf J_b^\top \mathbf e_y ,
+    \boldsymbol\tau ={}& \mathbf M(\mathbf q)\,\ddot{\mathbf q} + \mathbf h(\mathbf q, \dot{\mathbf q})
+        + \mathbf g(\mathbf q), \\
+    \mathbf h ={}& \dot{\mathbf M}\dot{\mathbf q} - \frac{\partial T}{\partial \mathbf q}
+      = \sum_b \left(m_b \mathbf J_b^\top \mathbf a_{b,0} + I_b \mathbf j_b^\top \alpha_{b,0}\right), \\
+    \mathbf g ={}& \frac{\partial V}{\partial \mathbf q} = g \sum_b m_b \mathbf J_b^\top \mathbf e_y ,
 
 where :math:`\mathbf a_{b,0}` and :math:`\alpha_{b,0}` are the acceleration and angular
 acceleration of body :math:`b` for the actual :math:`\dot{\mathbf q}` and
