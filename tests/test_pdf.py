@@ -31,6 +31,8 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 PDF = ROOT / "_build" / "pdf" / "fivebar.pdf"
+sys.path.insert(0, str(ROOT / "book" / "_ext"))
+import fivebar_build  # noqa: E402  (book/_ext is not a package)
 CHROMIUM = os.environ.get("FIVEBAR_CHROMIUM", "/usr/bin/chromium")
 IN_CI = os.environ.get("CI", "").strip().lower() in {"true", "1", "yes"}
 #: Today's book prints on about 210 A4 pages; a truncated or duplicated print falls outside.
@@ -45,18 +47,11 @@ def _unavailable(reason: str) -> None:
     pytest.skip(reason)
 
 
-def _sources() -> list[Path]:
-    out = [ROOT / "_config.yml", ROOT / "_toc.yml", ROOT / "CITATION.cff"]
-    for folder, pattern in (("book", "**/*"), ("lib/fivebar", "**/*.py"), ("data", "*")):
-        out += [p for p in (ROOT / folder).glob(pattern)
-                if p.is_file() and ".ipynb_checkpoints" not in p.parts
-                and "__pycache__" not in p.parts]
-    return out
 
 
 def _fresh(target: Path) -> bool:
     return target.is_file() and all(p.stat().st_mtime <= target.stat().st_mtime
-                                    for p in _sources())
+                                    for p in fivebar_build._sources())
 
 
 @pytest.fixture(scope="module")
