@@ -434,6 +434,8 @@ def build_pdf(edition: str = "instructor", force: bool = False) -> Path:
     html = out / f"singlehtml{suffix}"
     toc = numbered_toc(ROOT / "_toc.yml", out / f"_toc{suffix}.yml")
     t0 = time.perf_counter()
+    # the copy of the last build is not a page of this one (the build checks every page's links)
+    (html / PRINT_PAGE).unlink(missing_ok=True)
     _sphinx_build("singlehtml", html, out / f".doctrees{suffix}", toc, overrides)
     root = yaml.safe_load(toc.read_text())["root"]
     shutil.copyfile(html / f"{root}.html", html / PRINT_PAGE)
