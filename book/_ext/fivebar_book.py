@@ -146,7 +146,7 @@ def _builder_inited(app: Sphinx) -> None:
 
 def _table(header: list[str], rows: list[list[nodes.Node | str]], widths: list[int],
            classes: list[str]) -> nodes.table:
-    """A docutils table with given relative column widths."""
+    """A docutils table with given relative column widths (also the course extension's)."""
     table = nodes.table(classes=["colwidths-given", *classes])
     table["width"] = "100%"
     group = nodes.tgroup(cols=len(header))
@@ -167,8 +167,10 @@ def _table(header: list[str], rows: list[list[nodes.Node | str]], widths: list[i
             entry = nodes.entry()
             if isinstance(cell, str):
                 entry += nodes.paragraph(text=cell)
-            else:
+            elif isinstance(cell, nodes.Body):  # paragraph, container, list: as it is
                 entry += cell
+            else:  # inline nodes go in a paragraph
+                entry += nodes.paragraph("", "", cell)
             row += entry
         body += row
     return table

@@ -35,6 +35,9 @@ from sphinx.errors import ExtensionError
 from sphinx.util import logging
 from sphinx.util.docutils import SphinxDirective
 
+# the book's one docutils table builder (book/_ext is on sys.path beside this module)
+from fivebar_book import _table
+
 logger = logging.getLogger(__name__)
 
 __version__ = "1.0"
@@ -181,30 +184,6 @@ class LearningObjectives(SphinxDirective):
         return [box]
 
 
-def _table(header: list[str], rows: list[list[nodes.Node]], widths: list[int], cls: str) -> nodes.table:
-    table = nodes.table(classes=["colwidths-given", cls])
-    table["width"] = "100%"
-    group = nodes.tgroup(cols=len(header))
-    table += group
-    for w in widths:
-        group += nodes.colspec(colwidth=w)
-    head = nodes.thead()
-    group += head
-    row = nodes.row()
-    for h in header:
-        row += nodes.entry("", nodes.paragraph(text=h))
-    head += row
-    body = nodes.tbody()
-    group += body
-    for cells in rows:
-        row = nodes.row()
-        for cell in cells:
-            entry = nodes.entry()
-            entry += cell if isinstance(cell, (nodes.paragraph, nodes.bullet_list, nodes.container)) \
-                else nodes.paragraph("", "", cell)
-            row += entry
-        body += row
-    return table
 
 
 class CourseMap(SphinxDirective):
@@ -233,7 +212,7 @@ class CourseMap(SphinxDirective):
                 total[ch["role"]][0] += ch["reading"]
                 total[ch["role"]][1] += ch["working"]
             table = _table(["Chapter, role and time", "After it you can", "Prerequisites, and why this role"],
-                           rows, [22, 48, 30], "fivebar-course-map")
+                           rows, [22, 48, 30], ["fivebar-course-map"])
             note = nodes.paragraph(text="Total time: " + "; ".join(
                 f"{r} chapters {_hours(a)} reading + {_hours(b)} working" for r, (a, b) in total.items() if a or b) + ".")
             return [table, note]
@@ -251,7 +230,7 @@ class CourseMap(SphinxDirective):
                 docs += _doc_ref(env, _resolve(env, course, f), ch["title"] if ch else None)
             rows.append([nodes.paragraph(text=step["label"]), docs, nodes.paragraph(text=step["work"])])
         out = [nodes.paragraph("", "", nodes.strong(text=p["title"] + ". "), nodes.Text(p.get("audience", "")))]
-        out.append(_table(["When", "Chapters", "What to do"], rows, [16, 34, 50], "fivebar-course-path"))
+        out.append(_table(["When", "Chapters", "What to do"], rows, [16, 34, 50], ["fivebar-course-path"]))
         return out
 
 
