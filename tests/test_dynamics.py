@@ -209,3 +209,82 @@ def test_model_sampled_once_for_all_speeds_equals_direct_sampling():
     assert np.abs(F).max() > 0  # the load is not trivially zero
     LinkageDynamics(p, crank_speed_rpm=60, steps_per_period=50, motors=True)
     assert len(dmod._SAMPLE_CACHE) == 2  # motors are part of the key
+
+
+@pytest.mark.parametrize("S", [40, 80])
+def test_samples_from_half_or_double_S_equal_direct_sampling(S):
+    """Doubling or halving S reuses the cached samples (the step times of S are the even ones
+    of 2 S): the arrays must equal sampling afresh, and the cache must have been used."""
+    from fivebar import dynamics as dmod
+
+    p = load_params()
+    dmod._SAMPLE_CACHE.clear()
+    LinkageDynamics(p, crank_speed_rpm=200, steps_per_period=S // 2 if S == 80 else 2 * S, motors=False)
+    calls = []
+    real = LinkageDynamics._sample
+    try:
+        LinkageDynamics._sample = lambda self, t: calls.append(len(np.atleast_1d(t))) or real(self, t)
+        d = LinkageDynamics(p, crank_speed_rpm=333, steps_per_period=S, motors=False)
+    finally:
+        LinkageDynamics._sample = real
+    assert calls == ([S // 2] if S == 80 else [])  # only the new step times were sampled
+    M, C, K, F = d._sample(d.t)
+    sd = d.step_data
+    for X, Y in ((sd.M, M), (sd.C, C), (sd.K, K), (sd.F, F)):
+        assert np.allclose(X, Y, rtol=1e-10, atol=1e-12 * np.abs(Y).max())
+
+
+@pytest.mark.parametrize("nonlinear", [False, True])
+def test_floquet_multipliers_equal_those_of_the_finite_difference_monodromy(nonlinear):
+    """The shooting orbit's multipliers (chord Newton; the monodromy matrix propagated along the
+    2 n consistent directions; for the nonlinear model computed at the orbit on request) against
+    the eigenvalues of the period map's Jacobian by central differences."""
+    from fivebar.steady import _energy_norm, _period
+
+    d = LinkageDynamics(P, crank_speed_rpm=300, steps_per_period=100, motors=False, nonlinear=nonlinear)
+    scheme = GeneralizedAlpha(0.8)
+    st = shooting(d, scheme=scheme)
+    n = d.n
+    x = np.concatenate([st.u[0], st.v[0]])
+    scale = np.concatenate([np.full(n, np.abs(st.u).max()), np.full(n, np.abs(st.v).max())])
+    J = np.empty((2 * n, 2 * n))
+    for i in range(2 * n):
+        e = np.zeros(2 * n)
+        e[i] = 1e-5 * scale[i]
+        xp, xm = (_period(d, y[:n], y[n:], scheme, store="last") for y in (x + e, x - e))
+        J[:, i] = (np.concatenate([xp.u[-1], xp.v[-1]]) - np.concatenate([xm.u[-1], xm.v[-1]])) / (2 * e[i])
+    fd = np.linalg.eigvals(J)
+    fd = fd[np.argsort(-np.abs(fd))]
+    mult = st.floquet_multipliers
+    assert np.allclose(np.abs(mult[:6]), np.abs(fd[:6]), rtol=1e-5, atol=1e-9)
+    assert abs(mult[0]) > 0.05  # the comparison is not among vanishing multipliers
+    g = st.u[-1] - st.u[0], st.v[-1] - st.v[0]
+    assert _energy_norm(d, *g) <= 1e-9 * _energy_norm(d, st.u, st.v).max()
+
+
+@pytest.mark.parametrize("rpm,nonlinear", [(300, True), (600, False)])
+def test_steady_state_to_a_tolerance_meets_it_against_a_fine_reference(rpm, nonlinear):
+    """``steady_state(..., tol=)`` chooses S; its midpoint curves of L2 and L3 must lie within
+    tol (of their peak-to-peak value) of the S = 3200 solution, and its stated estimate must not
+    be below the true error."""
+    s = dict(crank_speed_rpm=rpm, motors=False, nonlinear=nonlinear)
+    ref = steady_state(P, steps_per_period=3200, **s)
+    steps = []
+    for tol in (1e-2, 1e-4):
+        res = steady_state(P, tol=tol, **s)
+        steps.append(res.dynamics.steps)
+        S = res.dynamics.steps
+        err = max(np.abs(res.midpoint(k) - ref.midpoint(k)[:: 3200 // S]).max() / np.ptp(ref.midpoint(k))
+                  for k in ("L2", "L3"))
+        assert err <= tol and err <= res.accuracy["estimate"]
+        assert res.accuracy["compared_with"] == S // 2 and f"S = {S} chosen" in res.note
+    assert steps[1] > steps[0]  # a finer tolerance takes a finer step
+
+
+@pytest.mark.parametrize("kw", [dict(tol=0), dict(tol=1.5), dict(tol=True), dict(tol="1%"),
+                                dict(tol=0.01, steps_per_period=400)])
+def test_steady_state_tolerance_errors_name_the_value(kw):
+    from fivebar.errors import InputError
+
+    with pytest.raises(InputError, match="tol = "):
+        steady_state(P, motors=False, **kw)

@@ -56,6 +56,38 @@ _SAMPLE_CACHE: dict = {}
 _SAMPLE_CACHE_SIZE = 4
 
 
+def _recent(cache: dict, key, make, size: int = 8):
+    """``cache[key]``, made by ``make()`` on a miss; the ``size`` most recent are kept."""
+    hit = cache.pop(key, None)
+    if hit is None:
+        hit = make()
+    cache[key] = hit
+    while len(cache) > size:
+        cache.pop(next(iter(cache)))
+    return hit
+
+
+_MODELS: dict = {}
+_SPEED_FREE: dict = {}
+
+
+def _model(params: Params, elements_per_link, motors: bool) -> Model:
+    """:func:`fivebar.assembly.build_model`, built once per parameter set, mesh and motors (the
+    model is not changed after it is built; the steady state to a tolerance builds one
+    :class:`LinkageDynamics` per S)."""
+    try:
+        key = (params, elements_per_link, motors)
+        hash(key)
+    except TypeError:
+        return build_model(params, elements_per_link=elements_per_link, motors=motors)
+    return _recent(_MODELS, key, lambda: build_model(params, elements_per_link=elements_per_link, motors=motors))
+
+
+def _speed_free(params: Params) -> Params:
+    """The parameter set at 1 r/min (the sample cache's key), made once per parameter set."""
+    return _recent(_SPEED_FREE, params, lambda: params.replace(crank_speed_rpm=1.0))
+
+
 def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
     """C = M Phi diag(2 zeta omega) Phi^T M for one frozen configuration (N s/m).
 
@@ -114,7 +146,7 @@ class LinkageDynamics:
         self.steps = int(S)
         self.period = params.period
         self.dt = self.period / self.steps
-        self.model: Model = build_model(params, elements_per_link=elements_per_link, motors=motors)
+        self.model: Model = _model(params, elements_per_link, bool(motors))
         rotor = {d for i in self.model.motor_dofs for d in self.model.motor_dofs[i][:2]}
         #: indices (into the model's DOFs) of the linkage subsystem
         self.keep = np.array([i for i in range(self.model.n) if i not in rotor])
@@ -148,12 +180,13 @@ class LinkageDynamics:
             return self._sample(t)
         p = self.params
         try:
-            key = (p.replace(crank_speed_rpm=1.0), self.steps, elements_per_link, bool(motors))
-            hash(key)
+            key = (_speed_free(p), self.steps, elements_per_link, bool(motors))
         except TypeError:  # an unhashable parameter set: no cache
             return self._sample(t)
         W2 = p.crank_speed ** 2
         hit = _SAMPLE_CACHE.pop(key, None)
+        if hit is None:
+            hit = self._nested(key, t, W2)
         if hit is None:
             M, C, K, F = self._sample(t)
             for X in (M, C, K):
@@ -165,14 +198,38 @@ class LinkageDynamics:
         M, C, K, Fn = hit
         return M, C, K, Fn * W2
 
+    def _nested(self, key: tuple, t: NDArray, W2: float) -> tuple | None:
+        """The samples at S from those at 2 S (every other one) or at S / 2 (computing only the
+        S / 2 new ones) when the cache holds them: the step times k T / S are the even ones
+        of k T / (2 S), to the last bit (halving is exact), so halving or doubling S, as
+        :func:`fivebar.steady.steady_state` does to reach a tolerance, samples no time twice."""
+        S = self.steps
+        fine = _SAMPLE_CACHE.get(key[:1] + (2 * S,) + key[2:])
+        if fine is not None:
+            out = tuple(np.ascontiguousarray(X[::2]) for X in fine)
+        else:
+            coarse = _SAMPLE_CACHE.get(key[:1] + (S // 2,) + key[2:]) if S % 2 == 0 else None
+            if coarse is None:
+                return None
+            M, C, K, F = self._sample(t[1::2])
+            out = []
+            for old, new in zip(coarse, (M, C, K, F / W2)):
+                X = np.empty((S,) + old.shape[1:])
+                X[0::2], X[1::2] = old, new
+                out.append(X)
+        for X in out[:3]:
+            X.flags.writeable = False
+        return tuple(out)
+
     def _sample(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         laws = crank_laws(self.params, t)
         state = rigid_state(self.params, *laws)
         M, K = self.model.matrices(laws[0], laws[3])
         k = self.keep
-        M, K = M[..., k[:, None], k[None, :]], K[..., k[:, None], k[None, :]]
+        # contiguous (the fancy index leaves a transposed layout), as the compiled loop reads them
+        M, K = (np.ascontiguousarray(X[..., k[:, None], k[None, :]]) for X in (M, K))
         ur = self.model.rigid_acceleration(state)[..., k]
-        F = -np.einsum("...ij,...j->...i", M, ur)
+        F = np.ascontiguousarray(-np.einsum("...ij,...j->...i", M, ur))
         if self._P is not None:
             F = F + np.array([np.asarray(self._P(ti), float) for ti in np.atleast_1d(t)]).reshape(F.shape)
         C = modal_damping(M, K, self.params.damping_ratio)
@@ -244,7 +301,7 @@ class LinkageDynamics:
         _, _, K, F = self._sample(np.asarray(t, float))
         return np.linalg.solve(K, F[..., None])[..., 0]
 
-    def static_equilibrium(self, t: float, max_iter: int = 50) -> NDArray:
+    def static_equilibrium(self, t: float, max_iter: int = 50, start: ArrayLike | None = None) -> NDArray:
         """Quasi-static deflection of the full subsystem at time t (s): K u + f_nl(u, t) = F.
 
         For the linear model this is :meth:`quasi_static`.  With the nonlinearity, Newton's
@@ -252,6 +309,8 @@ class LinkageDynamics:
         started from the last) and a backtracking line search on the residual: with a thin
         section the linear deflection K^-1 F can lie where f_nl is a hundred times F (2 mm
         side at 30 r/min), a start from which the first time step's Newton iteration diverges.
+        ``start``: a nearby equilibrium (of a neighbouring time) from which Newton's method is
+        tried first, at the full load; the continuation from zero runs if that fails.
         """
         x = float(t) / self.dt
         k = round(x)
@@ -269,6 +328,10 @@ class LinkageDynamics:
 
         u = np.zeros(self.n)
         lam, dlam = 0.0, 0.25
+        if start is not None:
+            u, dlam = np.array(start, dtype=float), 1.0
+            if u.shape != (self.n,) or not np.all(np.isfinite(u)):
+                raise InputError(f"start has shape {u.shape}: give a finite vector of the {self.n} kept DOFs")
         while lam < 1.0:
             target = min(1.0, lam + dlam)
             v = u.copy()
@@ -290,6 +353,8 @@ class LinkageDynamics:
             if rn <= 1e-9 * scale:
                 u, lam = v, target
                 dlam = min(2.0 * dlam, 1.0)
+            elif start is not None:  # the warm start failed: continuation from zero
+                u, dlam, start = np.zeros(self.n), 0.25, None
             else:
                 dlam *= 0.25
                 if dlam < 1e-6:

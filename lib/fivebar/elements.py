@@ -40,6 +40,8 @@ from __future__ import annotations
 import math
 from typing import Literal
 
+import functools
+
 import numpy as np
 from numpy.polynomial import polynomial as P
 
@@ -178,8 +180,16 @@ def gauss_points(n: int, L: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     if not _is_int(n) or n < 1:
         raise InputError(f"n = {n!r} is not allowed: it must be a positive integer")
     L = _positive("L", L)
-    t, w = np.polynomial.legendre.leggauss(int(n))
+    t, w = _legendre(int(n))
     return 0.5 * L * (t + 1.0), 0.5 * L * w
+
+
+@functools.lru_cache(maxsize=32)
+def _legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes and weights on [-1, 1], computed once per order (read-only)."""
+    t, w = np.polynomial.legendre.leggauss(n)
+    t.flags.writeable = w.flags.writeable = False
+    return t, w
 
 
 # --- beam element (A.5)-(A.8) ----------------------------------------------------------------

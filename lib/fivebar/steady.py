@@ -30,6 +30,7 @@ generalised-alpha method at S = 800 (:class:`fivebar.setup.Setup`); the paper's 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -41,7 +42,7 @@ from .elements import shape_functions
 from .kinematics import LINKS
 from .newmark import NewtonConvergenceError, Scheme, integrate
 from .params import Params
-from .setup import Setup, as_setup, default_scheme, scheme_name
+from .setup import Setup, as_setup, default_scheme, min_steps_per_period, scheme_name
 
 __all__ = ["SteadyState", "SteadyStateError", "march", "shooting", "steady_state"]
 
@@ -72,6 +73,9 @@ class SteadyState:
         Periods integrated (march: to reach the tolerance; shooting: in all, Newton included).
     floquet_multipliers
         Eigenvalues of the monodromy matrix at the orbit (shooting only), largest first.
+    accuracy
+        With ``steady_state(..., tol=...)``: the tolerance asked for, the S compared and the
+        estimated error of the midpoint deflections (see :func:`steady_state`); else None.
     """
 
     dynamics: LinkageDynamics
@@ -80,10 +84,22 @@ class SteadyState:
     v: NDArray
     method: str
     periods: int
-    floquet_multipliers: NDArray | None = None
+    _floquet: Any = field(default=None, repr=False)
     residual: float = float("nan")
     scheme: Scheme | None = None
+    accuracy: dict | None = None
     _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def floquet_multipliers(self) -> NDArray | None:
+        """Eigenvalues of the monodromy matrix at the orbit, largest first (None after a march).
+
+        After shooting a nonlinear model they are computed on first access (one more period
+        with the monodromy matrix, at the converged orbit; not counted in :attr:`periods`).
+        """
+        if callable(self._floquet):
+            self._floquet = _multipliers(self._floquet())
+        return self._floquet
 
     @property
     def crank_angle(self) -> NDArray:
@@ -99,13 +115,16 @@ class SteadyState:
 
     @property
     def note(self) -> str:
-        """What the stability of the orbit means, naming the scheme (and a remedy if unstable)."""
+        """What the stability of the orbit means, naming the scheme (and a remedy if unstable);
+        after ``steady_state(..., tol=...)`` also the step it chose and why."""
+        chosen = "" if self.accuracy is None else "; " + self.accuracy["choice"]
         if self.floquet_multipliers is None:
-            return f"reached by marching with {_scheme_text(self.scheme)}; no Floquet multipliers"
+            return f"reached by marching with {_scheme_text(self.scheme)}; no Floquet multipliers" + chosen
         rho = float(np.abs(self.floquet_multipliers).max())
         if rho < 1.0:
-            return f"stable: largest Floquet multiplier {rho:.3g} with {_scheme_text(self.scheme)} at S = {self.dynamics.steps}"
-        return f"unstable: largest Floquet multiplier {rho:.3g}; " + _remedy(self.scheme, self.dynamics.steps)
+            return (f"stable: largest Floquet multiplier {rho:.3g} with {_scheme_text(self.scheme)} at "
+                    f"S = {self.dynamics.steps}" + chosen)
+        return f"unstable: largest Floquet multiplier {rho:.3g}; " + _remedy(self.scheme, self.dynamics.steps) + chosen
 
     def _angles(self):
         return self.dynamics.crank_angles(self.t)
@@ -206,14 +225,17 @@ def _initial_state(dyn: LinkageDynamics) -> tuple[NDArray, NDArray]:
     times the load, and the first step's Newton iteration diverged from it.
     """
     h = dyn.dt
-    if dyn.nonlinear is None:
-        us = dyn.quasi_static(np.array([-h, 0.0, h]))
+    if dyn.nonlinear is None:  # at the step times -h (= T - h), 0 and h: the sampled K and F
+        sd = dyn.step_data
+        k = [sd.steps - 1, 0, 1]
+        us = np.linalg.solve(sd.K[k], sd.F[k][..., None])[..., 0]
     else:
-        us = [dyn.static_equilibrium(t) for t in (-h, 0.0, h)]
+        u0 = dyn.static_equilibrium(0.0)
+        us = [dyn.static_equilibrium(-h, start=u0), u0, dyn.static_equilibrium(h, start=u0)]
     return us[1], (us[2] - us[0]) / (2 * h)
 
 
-def _period(dyn, u0, v0, scheme, store="all", sensitivity=False, rtol=1e-10, max_iter=20):
+def _period(dyn, u0, v0, scheme, store="all", sensitivity=False, rtol=1e-10, max_iter=20, directions=None):
     """One period of the Newmark map from (u0, v0) at t = 0.
 
     Newton: full first (the step's tangent refactorised per iteration: for this small system
@@ -223,7 +245,7 @@ def _period(dyn, u0, v0, scheme, store="all", sensitivity=False, rtol=1e-10, max
     the a_{n+1} = a_n predictor poor, and full Newton can cycle where modified Newton converges.
     """
     kw = dict(step_data=dyn.step_data, store=store, sensitivity=sensitivity, rtol=rtol,
-              max_iter=max_iter)
+              max_iter=max_iter, directions=directions)
     try:
         return integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, newton="full", **kw)
     except NewtonConvergenceError as first:
@@ -286,7 +308,7 @@ def shooting(
     max_iter: int = 20,
     scheme: Scheme | None = None,
 ) -> SteadyState:
-    """Damped Newton's method on the periodicity condition, with the Newmark monodromy matrix.
+    r"""Damped Newton's method on the periodicity condition, with the Newmark monodromy matrix.
 
     ``dyn`` is a :class:`~fivebar.dynamics.LinkageDynamics`, a :class:`fivebar.setup.Setup` or a
     :class:`fivebar.params.Params`; ``scheme`` defaults to the set-up's (the parameter file's).
@@ -294,6 +316,13 @@ def shooting(
     periodicity residual (energy norm) is below ``tol``.  A Newton step that does not reduce
     the residual (or whose period fails to integrate) is halved, up to 10 times.  The returned
     state carries the Floquet multipliers of the orbit.
+
+    The Jacobian :math:`\boldsymbol\Phi - \mathbf I` is factorised once and reused while it
+    serves (the chord method): for the linear model :math:`\boldsymbol\Phi` does not depend on
+    the state, so one period with the monodromy matrix and one without reach the orbit; with
+    the nonlinearity a fresh :math:`\boldsymbol\Phi` is taken when the residual falls by
+    less than a factor 10 in a step, or when a step with the old one fails.  The Floquet
+    multipliers of a nonlinear orbit are computed when first asked for.
     """
     if not tol > 0:
         raise InputError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
@@ -303,14 +332,16 @@ def shooting(
         u0 = us if u0 is None else u0
         v0 = vs if v0 is None else v0
     n = dyn.n
-    mode = "uv" if scheme.is_newmark else "uva"
+    linear = dyn.nonlinear is None
     sd = dyn.step_data
     D = np.sqrt(np.concatenate([np.diag(sd.K[0]), np.diag(sd.M[0])]))
 
-    def evaluate(x):
-        """Period map at x: the result, the (u, v) monodromy, the absolute and relative residual."""
-        res = _period(dyn, x[:n], x[n:], scheme, sensitivity=mode)
-        Phi = res.monodromy[: 2 * n, : 2 * n] if mode == "uv" else _uv_monodromy(dyn, res.monodromy, n)
+    def evaluate(x, jacobian):
+        """Period map at x: result, (u, v) monodromy (or None), residual, absolute and relative size."""
+        if jacobian:
+            res, Phi = _monodromy_period(dyn, x, scheme)
+        else:
+            res, Phi = _period(dyn, x[:n], x[n:], scheme), None
         g = np.concatenate([res.u[-1], res.v[-1]]) - x
         a = float(_energy_norm(dyn, g[:n], g[n:]))
         scale = _energy_norm(dyn, res.u, res.v).max()
@@ -321,7 +352,7 @@ def shooting(
     x = np.concatenate([np.asarray(u0, float), np.asarray(v0, float)])
     try:
         try:
-            res, Phi, g, a, r = evaluate(x)
+            res, Phi, g, a, r = evaluate(x, True)
         except NewtonConvergenceError:
             # a non-dissipative scheme can blow up within one period from the quasi-static
             # start (errata E26): start instead from the orbit of the dissipative default
@@ -330,30 +361,37 @@ def shooting(
                 raise
             start = shooting(dyn, u0, v0, tol=tol, max_iter=max_iter, scheme=fallback)
             x = np.concatenate([start.u[0], start.v[0]])
-            res, Phi, g, a, r = evaluate(x)
+            res, Phi, g, a, r = evaluate(x, True)
     except NewtonConvergenceError as exc:
         raise NewtonConvergenceError(
             f"shooting could not integrate the first period: {exc}. " + _remedy(scheme, dyn.steps),
             exc.t, exc.residual, exc.iterations) from exc
     periods = 1
-    for it in range(1, max_iter + 1):
+    solve = _newton_step(Phi, D)
+    current = True  # the factorised Jacobian is that of the present x (at every x, if linear)
+    refresh = False  # evaluate the next trial with its monodromy matrix
+    for it in range(1, max_iter + 2):
         if r <= tol:
-            mult = scipy.linalg.eigvals(Phi)
-            mult = mult[np.argsort(-np.abs(mult))]
-            return SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, mult, residual=r, scheme=scheme)
-        # Newton step on the periodicity condition, scaled so that every DOF counts by its
-        # energy (the state mixes metres, radians and curvatures)
-        A = D[:, None] * (Phi - np.eye(2 * n)) / D[None, :]
-        y = scipy.linalg.lstsq(A, -D * g, cond=1e-14)[0] / D
+            floquet = _Constant(Phi) if current else _OrbitMonodromy(dyn, scheme, x)
+            return SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, floquet, residual=r, scheme=scheme)
+        if it > max_iter:
+            break
+        y = solve(g)
         lam = 1.0
         for _ in range(11):
             try:
-                trial = evaluate(x + lam * y)
+                trial = evaluate(x + lam * y, refresh)
                 periods += 1
                 if trial[3] < a or trial[4] <= tol:
                     break
             except NewtonConvergenceError:
                 periods += 1
+            if not current:  # the Jacobian is stale: take it at x and try the full step again
+                _, Phi, _, _, _ = evaluate(x, True)
+                periods += 1
+                solve, current = _newton_step(Phi, D), True
+                y, lam = solve(g), 1.0
+                continue
             lam *= 0.5
         else:
             raise SteadyStateError(
@@ -361,24 +399,90 @@ def shooting(
                 f"periodicity residual {r:.3e} in iteration {it}; " + _remedy(scheme, dyn.steps)
             )
         x = x + lam * y
-        res, Phi, g, a, r = trial
-    if r <= tol:
-        mult = scipy.linalg.eigvals(Phi)
-        mult = mult[np.argsort(-np.abs(mult))]
-        return SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, mult, residual=r, scheme=scheme)
+        slow = trial[3] > 0.1 * a
+        res, Phi_new, g, a, r = trial
+        if Phi_new is not None:
+            Phi, solve, current = Phi_new, _newton_step(Phi_new, D), True
+        else:
+            current = linear
+        refresh = slow and not current
     raise SteadyStateError(
         f"shooting did not converge in {max_iter} Newton iterations: relative periodicity "
         f"residual {r:.3e} (tolerance {tol:.1e}); " + _remedy(scheme, dyn.steps)
     )
 
 
-def _uv_monodromy(dyn: LinkageDynamics, Phi3: NDArray, n: int) -> NDArray:
-    """Reduce d(u, v, a)_T / d(u, v, a)_0 to (u, v) with a_0 consistent with the equation."""
+def _monodromy_period(dyn: LinkageDynamics, x: NDArray, scheme: Scheme, store: str = "all"):
+    """One period from x = (u0, v0) and its (u, v) monodromy matrix ``dx(T) / dx0``.
+
+    Newmark's step carries (u, v); the alpha schemes carry the acceleration too, and only the
+    2 n directions of (u, v) with a0 following from the equation of motion at t = 0 are
+    propagated (:func:`_consistent_directions`), not all 3 n of (u, v, a).
+    """
+    n = dyn.n
+    if scheme.is_newmark:
+        res = _period(dyn, x[:n], x[n:], scheme, store=store, sensitivity="uv")
+    else:
+        res = _period(dyn, x[:n], x[n:], scheme, store=store, sensitivity="uva",
+                      directions=_consistent_directions(dyn, x[:n]))
+    return res, res.monodromy[: 2 * n, : 2 * n]
+
+
+def _consistent_directions(dyn: LinkageDynamics, u0: NDArray) -> NDArray:
+    """d(u0, v0, a0) / d(u0, v0), (3 n, 2 n), with a0 = M^-1 (F - C v0 - K u0 - f_nl(u0)) at
+    t = 0 (as :func:`~fivebar.newmark.integrate` starts)."""
     sd = dyn.step_data
     M, C, K = sd.M[0], sd.C[0], sd.K[0]
-    da = -np.linalg.solve(M, np.hstack([K, C]))  # d a0 / d(u0, v0), linear part
-    E = np.vstack([np.eye(2 * n), da])
-    return (Phi3 @ E)[: 2 * n]
+    if dyn.nonlinear is not None:
+        K = K + dyn.nonlinear(u0, 0.0)[1]
+    da = -np.linalg.solve(M, np.hstack([K, C]))
+    return np.vstack([np.eye(2 * dyn.n), da])
+
+
+def _newton_step(Phi: NDArray, D: NDArray):
+    """``g -> y``, the least-squares solution of (Phi - I) y = -g in the energy scaling D.
+
+    Factorised once (SVD) for the chord iterations; singular values below 1e-14 of the largest
+    are dropped, as ``scipy.linalg.lstsq(..., cond=1e-14)`` does (the average-acceleration rule
+    leaves multipliers near 1 on the unresolved modes, see the module docstring).
+    """
+    A = D[:, None] * (Phi - np.eye(len(D))) / D[None, :]
+    U, sv, Vt = scipy.linalg.svd(A)
+    k = int(np.count_nonzero(sv > 1e-14 * sv[0]))
+    U, sv, Vt = U[:, :k], sv[:k], Vt[:k]
+    return lambda g: (Vt.T @ ((U.T @ (-D * g)) / sv)) / D
+
+
+def _multipliers(Phi: NDArray) -> NDArray:
+    """Eigenvalues of a monodromy matrix, largest modulus first."""
+    mult = scipy.linalg.eigvals(Phi)
+    return mult[np.argsort(-np.abs(mult))]
+
+
+class _Constant:
+    """A monodromy matrix already at hand (picklable, unlike a lambda)."""
+
+    def __init__(self, Phi: NDArray) -> None:
+        self.Phi = Phi
+
+    def __call__(self) -> NDArray:
+        return self.Phi
+
+
+class _OrbitMonodromy:
+    """The monodromy matrix at a converged nonlinear orbit, computed when asked for."""
+
+    def __init__(self, dyn: LinkageDynamics, scheme: Scheme, x: NDArray) -> None:
+        self.dyn, self.scheme, self.x = dyn, scheme, x
+
+    def __call__(self) -> NDArray:
+        return _monodromy_period(self.dyn, self.x, self.scheme, store="last")[1]
+
+
+#: first S of the doubling sequence of ``steady_state(..., tol=...)``, and the largest it tries
+_TOL_FIRST_STEPS, _TOL_MAX_STEPS = 50, 12800
+#: the links whose midpoint deflection ``tol`` bounds (Figure 6)
+_TOL_LINKS = ("L2", "L3")
 
 
 def steady_state(
@@ -390,12 +494,15 @@ def steady_state(
     nonlinear: bool | None = None,
     scheme: Scheme | None = None,
     elements_per_link: tuple[int, int, int, int] | None = None,
+    tol: float | None = None,
 ) -> SteadyState:
     """The periodic steady state of the linkage over one period of the motion.
 
     ``res = steady_state(params)`` or ``steady_state(fivebar.Setup(params, ...))``;
     ``res.midpoint("L2", "transverse")`` (mm over the S + 1 samples from crank angle 0),
     ``res.floquet_multipliers``, ``res.stable``, ``res.note``, ``res.bending_stress()`` (Pa).
+    ``steady_state(params, tol=0.01)`` chooses S itself for 1 % on the midpoint deflections
+    (fastest for a given accuracy, see ``tol``).
 
     Parameters
     ----------
@@ -408,11 +515,75 @@ def steady_state(
     steps_per_period, crank_speed_rpm, motors, nonlinear, scheme, elements_per_link
         Override the set-up's fields (``None`` keeps them): see :class:`fivebar.setup.Setup`.  The
         paper's rule is ``scheme=fivebar.PAPER_SCHEME``.
+    tol
+        Relative accuracy asked of the transverse midpoint deflections of L2 and L3 over the
+        period (Figure 6), for example 0.01; ``None`` (default) solves at the set-up's S.  With
+        ``tol`` the library chooses S (the set-up's S is not used; do not pass
+        ``steps_per_period``): it solves at S = 50, 100, 200, ... (each from the previous
+        orbit, sampling no step time twice) until the deflection curves of two successive S
+        differ by at most ``tol`` of their peak-to-peak value at every sample, and returns the
+        finer one.  For the second-order schemes that change over-estimates the finer
+        solution's error in the asymptotic range (about three times).  ``res.accuracy`` holds
+        the S compared, the estimate and every step tried; ``res.note`` says what was chosen.
     """
     if method not in ("shooting", "march"):
         raise InputError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
+    if tol is not None:
+        if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) or not 0 < tol < 1:
+            raise InputError(f"tol = {tol!r} is not allowed: give a relative accuracy between 0 and 1, "
+                             "for example 0.01 (1 %), or None for the set-up's S")
+        if steps_per_period is not None:
+            raise InputError(f"steps_per_period = {steps_per_period!r} and tol = {tol!r} are not allowed "
+                             "together: with tol the library chooses S")
     s = as_setup(setup, steps_per_period=steps_per_period, crank_speed_rpm=crank_speed_rpm, motors=motors,
                  nonlinear=nonlinear, scheme=scheme, elements_per_link=elements_per_link)
+    if tol is not None:
+        return _to_tolerance(s, method, float(tol))
     if method == "shooting":
         return shooting(s)
     return march(s)
+
+
+def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
+    """Steady states at S = 50, 100, 200, ... until two successive ones agree to ``tol``."""
+    inner = min(1e-6, 1e-3 * tol)  # the orbit to well below tol: residual of shooting, change of march
+    S = max(_TOL_FIRST_STEPS, min_steps_per_period(s.params))
+    prev: SteadyState | None = None
+    tried: list[str] = []
+    while S <= _TOL_MAX_STEPS:
+        dyn = s.replace(steps_per_period=S).dynamics()
+        try:
+            if method == "shooting":
+                start = (None, None) if prev is None else (prev.u[0], prev.v[0])  # the coarser orbit
+                cur = shooting(dyn, *start, tol=inner, scheme=s.scheme)
+            else:
+                cur = march(dyn, tol=inner, scheme=s.scheme)
+        except (NewtonConvergenceError, SteadyStateError) as exc:
+            tried.append(f"S = {S}: failed ({type(exc).__name__})")
+            prev, S = None, 2 * S
+            continue
+        if prev is not None:
+            err = _deflection_change(prev, cur)
+            tried.append(f"S = {prev.dynamics.steps} to {S}: {err:.2e}")
+            if err <= tol:
+                cur.accuracy = {
+                    "tol": tol, "estimate": err, "steps": S, "compared_with": prev.dynamics.steps,
+                    "method": method, "tried": tried,
+                    "choice": (f"S = {S} chosen for tol = {tol:g} ({method}): the transverse midpoint "
+                               f"deflections of L2 and L3 changed by at most {err:.2g} of their peak-to-peak "
+                               f"value from S = {prev.dynamics.steps} to S = {S}")}
+                return cur
+        prev, S = cur, 2 * S
+    raise SteadyStateError(
+        f"no S up to {_TOL_MAX_STEPS} reaches tol = {tol:g} on the midpoint deflections of L2 and L3 "
+        f"({'; '.join(tried)}); ask for a larger tol, or solve at a given S (steps_per_period)")
+
+
+def _deflection_change(coarse: SteadyState, fine: SteadyState) -> float:
+    """Largest change of the transverse midpoint deflection of L2 and L3 from ``coarse`` (S) to
+    ``fine`` (2 S) at the S + 1 common samples, relative to the finer peak-to-peak value."""
+    out = 0.0
+    for link in _TOL_LINKS:
+        yc, yf = coarse.midpoint(link), fine.midpoint(link)
+        out = max(out, float(np.abs(yc - yf[::2]).max() / max(np.ptp(yf), 1e-300)))
+    return out
