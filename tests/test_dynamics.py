@@ -288,3 +288,27 @@ def test_steady_state_tolerance_errors_name_the_value(kw):
 
     with pytest.raises(InputError, match="tol = "):
         steady_state(P, motors=False, **kw)
+
+
+@pytest.mark.parametrize("nonlinear", [False, True])
+def test_newton_picard_shooting_reaches_the_newton_orbit(nonlinear, monkeypatch):
+    """Above 32 DOFs shooting takes Newton's step on the lowest frozen modes only (Picard's
+    iteration on the rest) and modified Newton within the steps: on the (2,4,4,2) mesh its
+    orbit must equal the one of Newton's method with the whole monodromy matrix."""
+    import fivebar.steady as st
+
+    s = dict(crank_speed_rpm=600, steps_per_period=100, motors=False, nonlinear=nonlinear,
+             elements_per_link=(2, 4, 4, 2))
+    d = LinkageDynamics(P, **s)
+    assert d.n > st._DENSE_MAX_DOFS and st._picard_basis(d, GeneralizedAlpha(0.8), np.ones(2 * d.n)) is not None
+    widths = []
+    step = st._newton_step
+    monkeypatch.setattr(st, "_newton_step", lambda W, V, D: widths.append(W.shape[1]) or step(W, V, D))
+    picard = shooting(d, scheme=GeneralizedAlpha(0.8))
+    assert set(widths) == {2 * st._PICARD_MODES}  # converged without falling back to Newton
+    monkeypatch.setattr(st, "_DENSE_MAX_DOFS", 10**6)
+    newton = shooting(LinkageDynamics(P, **s), scheme=GeneralizedAlpha(0.8))
+    for link in ("L2", "L3"):
+        a, b = picard.midpoint(link), newton.midpoint(link)
+        assert np.abs(a - b).max() <= 1e-7 * np.ptp(b)
+    assert np.allclose(picard.floquet_multipliers[:4], newton.floquet_multipliers[:4], rtol=1e-6)
