@@ -133,9 +133,9 @@ def bench_steady(P, R: int) -> dict:
     return out
 
 
-def radau_from_rest(P, rtol: float, periods: int = 2) -> tuple[float, SteadyState, dict]:
+def radau_from_rest(P, rtol: float, periods: int = 2, motors: bool = True) -> tuple[float, SteadyState, dict]:
     """solve_ivp Radau from rest over ``periods`` periods; the last one as a SteadyState."""
-    d = LinkageDynamics(P)  # the same equations: M, C, K, F and f_nl at any t
+    d = LinkageDynamics(P, motors=motors)  # the same equations: M, C, K, F and f_nl at any t
     n = d.n
 
     def rhs(t, x):

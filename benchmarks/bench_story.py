@@ -4,19 +4,30 @@ Prints one JSON object (and writes it with ``--out``).  Sections (times in ms un
 
   step_us         one period of the default model (parameter file: S, generalised-alpha) started on
                   its orbit, microseconds per step, linear and nonlinear, motors off.
-  steady_ms       ``steady_state(params, crank_speed_rpm=rpm, motors=False, nonlinear=...)`` at 60,
-                  300, 600 r/min: "first" with the model cache emptied (what a new speed costs the
-                  first time), "repeat" the same call again; "march" the same by marching from rest.
+  steady_ms       at 60, 300, 600 r/min, linear and nonlinear, motors off:
+                  ``tol_first``: ``steady_state(params, tol=0.01)`` (the library chooses S) with the
+                  model caches emptied; ``tol_new_speed``: the same call at other speeds (1 %
+                  apart: the speed-independent samples are cached, what each further speed of a
+                  study costs); ``tol_S``, ``tol_estimate`` and ``tol_true_error`` (against the
+                  S = 3200 orbit, the largest deviation of the L2 and L3 midpoint curves relative
+                  to their peak-to-peak value); ``default_first`` / ``default_repeat``:
+                  ``steady_state(params)`` at the parameter file's S = 800; ``march``: marching
+                  from rest at S = 800.
   exudyn_ms       ``multibody_steady_state`` on its coarsest mesh and steps (with the p-p deflection
-                  of L2 against the KED orbit at S = 1600), if exudyn is installed.
+                  of L2 against the KED orbit at S = 1600), if exudyn is installed, and the ratio
+                  of its time to fivebar's ``tol_new_speed`` / ``tol_first`` at 300 r/min.
+  radau_s         scipy's solve_ivp Radau from rest over two periods at 300 r/min (motors off,
+                  nonlinear), its error against the S = 3200 orbit (full run only: tens of seconds).
+  scaling_ms      nonlinear steady state (motors off, 300 r/min) for three meshes: at S = 100, 800,
+                  1600 (first call, samples built) and with ``tol=0.01`` (first call and new speed),
+                  and the exponent b of time ~ n^b from the paper's mesh to (4,8,8,4).
   sweep_s         ``speed_sweep`` over N speeds (100-3600 r/min) on a 2-process pool (linear, the
                   sweep's default), wall time including the pool start.
   import_s        ``import fivebar`` in a fresh interpreter.
-  scaling_ms      nonlinear steady state (motors off) for three meshes x three S, first call.
   load            ``os.getloadavg()`` at start and end (the machine is shared).
 
 Usage: python benchmarks/bench_story.py [--quick] [--out benchmarks/results/story.json]
-``--quick`` (< 3 min): fewer repeats, 40 sweep speeds instead of 200, no S = 1600 row.
+``--quick`` (< 2 min): fewer repeats, 40 sweep speeds instead of 200, no S = 1600 row, no Radau.
 """
 
 from __future__ import annotations
@@ -47,6 +58,16 @@ def _t(fn, repeats=1):
 def _clear():
     from fivebar import dynamics
     dynamics._SAMPLE_CACHE.clear()
+    dynamics._MODELS.clear()
+
+
+def _curve_error(res, ref):
+    """Largest deviation of the L2 and L3 midpoint curves from ``ref`` (S a multiple of res's),
+    relative to the reference's peak-to-peak value."""
+    import numpy as np
+    k = ref.dynamics.steps // res.dynamics.steps
+    return max(float(np.abs(res.midpoint(L) - ref.midpoint(L)[::k]).max() / np.ptp(ref.midpoint(L)))
+               for L in ("L2", "L3"))
 
 
 def step_costs(repeats):
@@ -75,16 +96,39 @@ def steady_costs(repeats):
     out = {}
     for rpm in (60.0, 300.0, 600.0):
         for nl in (False, True):
-            kw = dict(crank_speed_rpm=rpm, motors=False, nonlinear=nl)
+            kw = dict(motors=False, nonlinear=nl)
+            ref = steady_state(p, crank_speed_rpm=rpm, steps_per_period=3200, **kw)
             _clear()
-            first, r = _t(lambda: steady_state(p, **kw))
-            rep, _ = _t(lambda: steady_state(p, **kw), repeats)
-            mar, m = _t(lambda: steady_state(p, method="march", **kw))
+            first, r = _t(lambda: steady_state(p, crank_speed_rpm=rpm, tol=0.01, **kw))
+            speeds = iter(rpm * (1.0 + 0.01 * k) for k in range(1, repeats + 1))
+            new, _ = _t(lambda: steady_state(p, crank_speed_rpm=next(speeds), tol=0.01, **kw), repeats)
+            _clear()
+            dfirst, d = _t(lambda: steady_state(p, crank_speed_rpm=rpm, **kw))
+            drep, _ = _t(lambda: steady_state(p, crank_speed_rpm=rpm, **kw), repeats)
+            mar, m = _t(lambda: steady_state(p, crank_speed_rpm=rpm, method="march", **kw))
             out[f"{'nonlinear' if nl else 'linear'}_{rpm:g}rpm"] = {
-                "first": 1e3 * first, "repeat": 1e3 * rep, "march": 1e3 * mar,
-                "periods_shooting": r.periods, "periods_march": m.periods,
-                "L2_p2p_mm": r.peak_to_peak("L2")}
+                "tol_first": 1e3 * first, "tol_new_speed": 1e3 * new, "tol_S": r.dynamics.steps,
+                "tol_estimate": r.accuracy["estimate"], "tol_true_error": _curve_error(r, ref),
+                "default_first": 1e3 * dfirst, "default_repeat": 1e3 * drep, "default_S": d.dynamics.steps,
+                "default_true_error": _curve_error(d, ref), "march": 1e3 * mar,
+                "periods_default": d.periods, "periods_march": m.periods, "L2_p2p_mm": ref.peak_to_peak("L2")}
     return out
+
+
+def radau_cost(quick):
+    if quick:
+        return {"note": "not run with --quick (tens of seconds)"}
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from bench_dynamics import radau_from_rest
+    from fivebar import load_params, steady_state
+
+    p = load_params().replace(crank_speed_rpm=300)
+    ref = steady_state(p, steps_per_period=3200, motors=False)
+    el, ss, stats = radau_from_rest(p, 1e-3, motors=False)
+    ref_ss = steady_state(p, steps_per_period=ss.dynamics.steps, motors=False)
+    return {"s": el, "runs": 1, "rtol": 1e-3, "periods": 2, "L2_p2p_mm": ss.peak_to_peak("L2"),
+            "p2p_rel_err": {L: ss.peak_to_peak(L) / ref.peak_to_peak(L) - 1 for L in ("L2", "L3")},
+            "curve_error_vs_same_S_orbit": _curve_error(ss, ref_ss), **stats}
 
 
 def exudyn_cost(quick):
@@ -110,6 +154,14 @@ def exudyn_cost(quick):
         if quick:
             break
     out["runs"] = rows
+    ok = [r["ms"] for r in rows if "ms" in r and abs(r["rel_err"]) <= 0.01]
+    if ok:
+        _clear()
+        first, _ = _t(lambda: steady_state(p, crank_speed_rpm=300, motors=False, tol=0.01))
+        speeds = iter(300.0 * (1.0 + 0.01 * k) for k in range(1, 6))
+        new, _ = _t(lambda: steady_state(p, crank_speed_rpm=next(speeds), motors=False, tol=0.01), 5)
+        out["fivebar_tol_ms"] = {"first": 1e3 * first, "new_speed": 1e3 * new}
+        out["ratio_exudyn_coarsest_over_fivebar"] = {"first": min(ok) / (1e3 * first), "new_speed": min(ok) / (1e3 * new)}
     return out
 
 
@@ -134,19 +186,37 @@ def import_time(repeats):
 
 
 def scaling(quick):
+    import math
     from fivebar import load_params, steady_state
 
     p = load_params()
+    kw = dict(crank_speed_rpm=300, motors=False)
     out = []
     for mesh in ((1, 2, 2, 1), (2, 4, 4, 2), (4, 8, 8, 4)):
-        for S in ((100, 400, 800) if quick else (100, 800, 1600)):
+        for S in ((100, 800) if quick else (100, 800, 1600)):
             _clear()
             try:
-                dt, r = _t(lambda: steady_state(p, motors=False, steps_per_period=S, elements_per_link=mesh))
+                dt, r = _t(lambda: steady_state(p, steps_per_period=S, elements_per_link=mesh, **kw))
                 out.append({"mesh": mesh, "S": S, "n": r.dynamics.n, "ms": 1e3 * dt, "periods": r.periods})
             except Exception as exc:  # noqa: BLE001 - reported
                 out.append({"mesh": mesh, "S": S, "error": f"{type(exc).__name__}: {str(exc)[:200]}"})
-    return out
+        _clear()
+        dt, r = _t(lambda: steady_state(p, tol=0.01, elements_per_link=mesh, **kw))
+        speeds = iter(300.0 * (1.0 + 0.01 * k) for k in range(1, 4))
+        dn, _ = _t(lambda: steady_state(p, tol=0.01, elements_per_link=mesh, crank_speed_rpm=next(speeds),
+                                        motors=False), 3)
+        out.append({"mesh": mesh, "S": "tol=0.01", "chosen_S": r.dynamics.steps, "n": r.dynamics.n,
+                    "ms": 1e3 * dt, "new_speed_ms": 1e3 * dn})
+    exps = {}
+    for key in ("ms", "new_speed_ms"):
+        rows = {r["n"]: r[key] for r in out if r.get("S") == "tol=0.01"}
+        n0, n1 = min(rows), max(rows)
+        exps[f"tol_{key}"] = math.log(rows[n1] / rows[n0]) / math.log(n1 / n0)
+    for S in (100, 800):
+        rows = {r["n"]: r["ms"] for r in out if r.get("S") == S and "ms" in r}
+        n0, n1 = min(rows), max(rows)
+        exps[f"S{S}_ms"] = math.log(rows[n1] / rows[n0]) / math.log(n1 / n0)
+    return {"rows": out, "exponent_b": exps}
 
 
 def main():
@@ -165,8 +235,7 @@ def main():
     with threadpool_limits(1):
         res["step_us"] = step_costs(rep)
         res["steady_ms"] = steady_costs(rep)
-        res["steady_tol_call"] = {"note": "steady_state(params, tol=0.01) is not implemented yet (issue 10 item 3)"}
-        res["radau"] = {"note": "not measured here: see benchmarks/bench_dynamics.py"}
+        res["radau_s"] = radau_cost(args.quick)
         res["exudyn_ms"] = exudyn_cost(args.quick)
         res["scaling_ms"] = scaling(args.quick)
     res["sweep_s"] = sweep_cost(40 if args.quick else 200)
