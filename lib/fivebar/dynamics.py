@@ -69,6 +69,8 @@ def _recent(cache: dict, key, make, size: int = 8):
 
 _MODELS: dict = {}
 _SPEED_FREE: dict = {}
+#: ("geometry" or "elements", sample key) -> the nonlinear force's configuration at the S steps
+_GEOMETRY: dict = {}
 
 
 def _model(params: Params, elements_per_link, motors: bool) -> Model:
@@ -155,11 +157,13 @@ class LinkageDynamics:
         self._nl = NonlinearForce(self.model, keep=self.keep) if nonlinear else None
         t = np.arange(self.steps) * self.dt
         self.t = t
+        self._key = None  # the sample cache's key (None: not cached)
         with _blas_threads(1):  # many small dense problems: threaded BLAS only adds overhead
             M, C, K, F = self._sampled(t, elements_per_link, motors)
-            # the nonlinear force's view of the configuration at the S step times (the element
-            # rotations), so that f_nl(u, t) at a step time does no kinematics
-            self._geometry = None if self._nl is None else self._nl.geometry(*self.crank_angles(t))
+        # the nonlinear force's view of the configuration at the S step times (the element
+        # rotations), so that f_nl(u, t) at a step time does no kinematics: made when first
+        # needed, and like the samples the same at every speed
+        self._geometry = self._elements = None
         self.step_data = PeriodicStepData(M, C, K, F, t0=0.0, period=self.period)
 
     # --- sampling ------------------------------------------------------------------------------
@@ -183,6 +187,7 @@ class LinkageDynamics:
             key = (_speed_free(p), self.steps, elements_per_link, bool(motors))
         except TypeError:  # an unhashable parameter set: no cache
             return self._sample(t)
+        self._key = key
         W2 = p.crank_speed ** 2
         hit = _SAMPLE_CACHE.pop(key, None)
         if hit is None:
@@ -197,6 +202,13 @@ class LinkageDynamics:
             _SAMPLE_CACHE.pop(next(iter(_SAMPLE_CACHE)))
         M, C, K, Fn = hit
         return M, C, K, Fn * W2
+
+    def _speed_free(self, what: str, make):
+        """``make()``, of a quantity at the S step times that does not depend on the speed,
+        kept beside the samples (same key)."""
+        if self._key is None:
+            return make()
+        return _recent(_GEOMETRY, (what, self._key), make, size=2 * _SAMPLE_CACHE_SIZE)
 
     def _nested(self, key: tuple, t: NDArray, W2: float) -> tuple | None:
         """The samples at S from those at 2 S (every other one) or at S / 2 (computing only the
@@ -266,11 +278,13 @@ class LinkageDynamics:
         if (self._nl is None or sd is None or sd.steps != self.steps or sd.t0 != 0.0
                 or abs(sd.period - self.period) > 1e-12 * self.period):
             return None
-        if getattr(self, "_elements", None) is None:
-            Ge, ae = self._nl.element_geometry(*self.crank_angles(self.t))
-            self._elements = (np.ascontiguousarray(Ge), np.ascontiguousarray(ae),
-                              np.ascontiguousarray(self._nl.element_weights),
-                              np.ascontiguousarray(self._nl.element_dofs, dtype=np.int64))
+        if self._elements is None:
+            def make():
+                Ge, ae = self._nl.element_geometry(*self.crank_angles(self.t))
+                return (np.ascontiguousarray(Ge), np.ascontiguousarray(ae),
+                        np.ascontiguousarray(self._nl.element_weights),
+                        np.ascontiguousarray(self._nl.element_dofs, dtype=np.int64))
+            self._elements = self._speed_free("elements", make)
         return self._elements
 
     def nonlinear_geometry(self, t: float) -> ElementGeometry:
@@ -284,6 +298,8 @@ class LinkageDynamics:
         x = float(t) / self.dt
         k = round(x)
         if abs(x - k) <= 1e-9 * max(1.0, abs(x)):
+            if self._geometry is None:
+                self._geometry = self._speed_free("geometry", lambda: self._nl.geometry(*self.crank_angles(self.t)))
             return self._geometry.at(k % self.steps)
         th1, th4 = self.crank_angles(t)
         return self._nl.geometry(float(th1), float(th4))
