@@ -276,6 +276,19 @@ def beam_element(
     A = _positive("A", A)
     I = _positive("I", I)  # noqa: E741
     rho = _positive("rho", rho)
+    G0, G1, G2, Bax, Btr = _element_integrals(L)
+    M = rho * A * G0 * (Bax + Btr)
+    if rotary_inertia:
+        M += rho * I * G1 * Btr
+    K = E * A * G1 * Bax + E * I * G2 * Btr
+    return M, K
+
+
+@functools.lru_cache(maxsize=64)
+def _element_integrals(L: float) -> tuple[np.ndarray, ...]:
+    """The integrals of (A.8) over an element of length L, made once per length (read-only):
+    the Gram matrices of the shape functions and of their first and second derivatives, and
+    the masks of the axial and the transverse DOFs."""
     x, w = gauss_points(_GAUSS_EXACT, L)
     N0, N1, N2 = (shape_functions(x, L, d) for d in range(3))
     ax = np.zeros(8)
@@ -287,11 +300,10 @@ def beam_element(
         G = (N * w[:, None]).T @ N
         return 0.5 * (G + G.T)
 
-    M = rho * A * gram(N0) * (Bax + Btr)
-    if rotary_inertia:
-        M += rho * I * gram(N1) * Btr
-    K = E * A * gram(N1) * Bax + E * I * gram(N2) * Btr
-    return M, K
+    out = (gram(N0), gram(N1), gram(N2), Bax, Btr)
+    for X in out:
+        X.flags.writeable = False
+    return out
 
 
 def assemble_line(
