@@ -79,9 +79,8 @@ class SteadyState:
     scheme
         The time integrator used.
     periods
-        Periods integrated (march: to reach the tolerance; shooting: in all, Newton included).
-    floquet_multipliers
-        Eigenvalues of the monodromy matrix at the orbit (shooting only), largest first.
+        Periods integrated (march: to reach the tolerance; shooting: in all, Newton included;
+        not the one that computes the Floquet multipliers of a nonlinear orbit when asked).
     accuracy
         With ``steady_state(..., tol=...)``: the tolerance asked for, the S compared and the
         estimated error of the midpoint deflections (see :func:`steady_state`); else None.
