@@ -203,7 +203,7 @@ class LinkageDynamics:
         M, C, K, Fn = hit
         return M, C, K, Fn * W2
 
-    def _speed_free(self, what: str, make):
+    def _at_step_times(self, what: str, make):
         """``make()``, of a quantity at the S step times that does not depend on the speed,
         kept beside the samples (same key)."""
         if self._key is None:
@@ -284,7 +284,7 @@ class LinkageDynamics:
                 return (np.ascontiguousarray(Ge), np.ascontiguousarray(ae),
                         np.ascontiguousarray(self._nl.element_weights),
                         np.ascontiguousarray(self._nl.element_dofs, dtype=np.int64))
-            self._elements = self._speed_free("elements", make)
+            self._elements = self._at_step_times("elements", make)
         return self._elements
 
     def nonlinear_geometry(self, t: float) -> ElementGeometry:
@@ -299,7 +299,8 @@ class LinkageDynamics:
         k = round(x)
         if abs(x - k) <= 1e-9 * max(1.0, abs(x)):
             if self._geometry is None:
-                self._geometry = self._speed_free("geometry", lambda: self._nl.geometry(*self.crank_angles(self.t)))
+                self._geometry = self._at_step_times(
+                    "geometry", lambda: self._nl.geometry(*self.crank_angles(self.t)))
             return self._geometry.at(k % self.steps)
         th1, th4 = self.crank_angles(t)
         return self._nl.geometry(float(th1), float(th4))

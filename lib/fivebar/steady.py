@@ -498,8 +498,8 @@ def _newton_step(W: NDArray, V: NDArray, D: NDArray):
     r"""``g -> y``, the (Newton-Picard) step towards x(T) = x from the residual g = x(T) - x.
 
     ``W`` is the monodromy matrix times the basis ``V`` (2 n, m), orthonormal in the energy
-    scaling D.  Along V the step solves :math:`\mathbf V^	op(oldsymbol\Phi - \mathbf I)\mathbf y
-    = -\mathbf V^	op\mathbf g` (Newton), across it the step is the residual itself (Picard);
+    scaling D.  Along V the step solves :math:`\mathbf V^\top(\boldsymbol\Phi - \mathbf I)\mathbf y
+    = -\mathbf V^\top\mathbf g` (Newton), across it the step is the residual itself (Picard);
     with V every direction (``diag(1 / D)``) this is Newton's step with the whole matrix.
     Least squares, factorised once (SVD) for the chord iterations: singular values below
     1e-14 of the largest are dropped, as ``scipy.linalg.lstsq(..., cond=1e-14)`` does (the

@@ -207,7 +207,7 @@ def match_peaks(sweep: pd.DataFrame, column: str, speeds: ArrayLike, window: flo
     r"""The sweep's local maximum near each predicted resonance speed.
 
     For every predicted speed :math:`\Omega_p` (r/min), the largest value of ``column`` among
-    the sweep points within :math:`\Omega_p(1 \pm 	ext{window})`; it counts as a peak if it is
+    the sweep points within :math:`\Omega_p(1 \pm \text{window})`; it counts as a peak if it is
     an interior maximum of that window (not at its edge).
 
     Returns
