@@ -630,10 +630,9 @@ _BARS = re.compile(r"(?<![\\|\w])\|(?=\S)([^|`]*?\S)\|(?![|\w])")
 _QUOTED = re.compile(r"(``.*?``|:\w+:`[^`]*`|`[^`]*`_?)")
 
 
-def _escape_bars(app: Sphinx, what: str, name: str, obj: Any, options: Any,
-                 lines: list[str]) -> None:
-    # Escape |x| in prose (not in inline literals or roles, not in math, code or other
-    # directive blocks, not in literal blocks or doctests), so it shows as |x|.
+def _prose_lines(lines: list[str]):
+    """Indices of the prose lines of a docstring: not in doctests, literal blocks (after a line
+    ending in "::") or directive blocks (math, code, ...).  A caller may rewrite ``lines[i]``."""
     block_indent: int | None = None
     for i, line in enumerate(lines):
         stripped = line.lstrip()
@@ -642,17 +641,26 @@ def _escape_bars(app: Sphinx, what: str, name: str, obj: Any, options: Any,
             if not stripped or indent > block_indent:
                 continue
             block_indent = None
-        if stripped.startswith(">>>") or stripped.startswith("... "):
+        if stripped.startswith((">>>", "... ")):
             continue
         if stripped.startswith(".. "):
             block_indent = indent
             continue
-        if "|" in line and not stripped.startswith("|"):
+        yield i
+        if stripped.endswith("::"):
+            block_indent = indent
+
+
+def _escape_bars(app: Sphinx, what: str, name: str, obj: Any, options: Any,
+                 lines: list[str]) -> None:
+    # Escape |x| in prose (not in inline literals or roles, not in math, code or other
+    # directive blocks, not in literal blocks or doctests), so it shows as |x|.
+    for i in _prose_lines(lines):
+        line = lines[i]
+        if "|" in line and not line.lstrip().startswith("|"):
             parts = _QUOTED.split(line)
             lines[i] = "".join(p if k % 2 else _BARS.sub(r"\\|\1\\|", p)
                                for k, p in enumerate(parts))
-        if stripped.endswith("::"):
-            block_indent = indent
 
 
 _ERRATA_IDS: set[str] | None = None
@@ -668,19 +676,8 @@ def _link_errata_in_docstring(app: Sphinx, what: str, name: str, obj: Any, optio
         import fivebar.reporting as reporting
 
         _ERRATA_IDS = set(reporting.errata_table()["id"])
-    block_indent: int | None = None
-    for i, line in enumerate(lines):
-        stripped = line.lstrip()
-        indent = len(line) - len(stripped)
-        if block_indent is not None:
-            if not stripped or indent > block_indent:
-                continue
-            block_indent = None
-        if stripped.startswith((">>>", "... ")):
-            continue
-        if stripped.startswith(".. "):
-            block_indent = indent
-            continue
+    for i in _prose_lines(lines):
+        line = lines[i]
         if _MENTION.search(line):
             parts = _QUOTED.split(line)
             lines[i] = "".join(
@@ -688,8 +685,6 @@ def _link_errata_in_docstring(app: Sphinx, what: str, name: str, obj: Any, optio
                     lambda m: (f":ref:`{m.group(1)} <{erratum_label(m.group(1))}>`"
                                if m.group(1) in _ERRATA_IDS else m.group(1)), p)
                 for k, p in enumerate(parts))
-        if stripped.endswith("::"):
-            block_indent = indent
 
 
 _API: dict[str, set[str]] | None = None

@@ -249,6 +249,16 @@ def _tangent(Mb, C, K, Kt, cM, cC, cK, nonlin, St):
 
 
 @njit(cache=True)
+def _full_lu(u, G, Ae, wE, idx, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv):
+    """The consistent tangent at ``u`` (f_nl and K_t evaluated) into ``St``, factorised;
+    returns ``(ok, dmin, dmax)``, ok False if singular."""
+    nl_force(u, G, Ae, wE, idx, fnl, Kt, True)
+    _tangent(Mb, C, K, Kt, cM, cC, cK, True, St)
+    dmin, dmax = lu_factor(St, piv)
+    return not singular(dmin, dmax), dmin, dmax
+
+
+@njit(cache=True)
 def _linear_lu(LUc, pivc, have, i, Mb, C, K, Kt, cM, cC, cK):
     """Fill slot ``i`` of the linear-tangent cache if empty; returns False if singular."""
     if have[i]:
@@ -390,10 +400,8 @@ def march(Ms, Cs, Ks, Fs, k0, m_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af
                     return NO_CONVERGENCE
                 if full:
                     # the tangent only now, when an update follows (not at the converged point)
-                    nl_force(u1, G, Ae, wE, idx, fnl, Kt, True)
-                    _tangent(Mb, C, K, Kt, cM, cC, cK, True, St)
-                    dmin, dmax = lu_factor(St, piv)
-                    if singular(dmin, dmax):
+                    ok, dmin, dmax = _full_lu(u1, G, Ae, wE, idx, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv)
+                    if not ok:
                         info[0], info[1], info[4], info[5] = j, t, dmin, dmax
                         return SINGULAR
                     lu_solve(St, piv, R)
@@ -411,10 +419,8 @@ def march(Ms, Cs, Ks, Fs, k0, m_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af
                 k_it += 1
             iters[j - 1] = k_it
             if sens:  # the consistent tangent at the converged u_{n+1}
-                nl_force(u1, G, Ae, wE, idx, fnl, Kt, True)
-                _tangent(Mb, C, K, Kt, cM, cC, cK, True, St)
-                dmin, dmax = lu_factor(St, piv)
-                if singular(dmin, dmax):
+                ok, dmin, dmax = _full_lu(u1, G, Ae, wE, idx, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv)
+                if not ok:
                     info[0], info[1], info[4], info[5] = j, t, dmin, dmax
                     return SINGULAR
             LU = St
