@@ -2,7 +2,7 @@
 
 Prints one JSON object.  Sections:
 
-  per_step         one period (S = 100 steps) of the default model (parameter file, 60 r/min)
+  per_step         one period (the parameter file's S) of the default model (60 r/min)
                    started on its periodic orbit, in microseconds per step: linear (cached LU,
                    one solve per step) and nonlinear (full and modified Newton), for the
                    paper's rule (average acceleration) and GeneralizedAlpha(0.8).
@@ -22,7 +22,7 @@ Prints one JSON object.  Sections:
   sweep            steady states per second over --sweep-points (>= 50) crank speeds from 20 to
                    120 r/min in this process, and a 200-speed sweep on 2 worker processes
                    (concurrent.futures.ProcessPoolExecutor), measured and extrapolated
-                   (nonlinear model, shooting with GeneralizedAlpha(0.8), S = 100: the paper's
+                   (nonlinear model, shooting with GeneralizedAlpha(0.8), the file's S: the paper's
                    rule fails in nonlinear shooting near 114 r/min).
 
 Every timing is the median of >= 5 runs (time.perf_counter) unless the JSON says otherwise,
@@ -50,12 +50,15 @@ import scipy
 import scipy.integrate
 from threadpoolctl import threadpool_limits
 
-from fivebar import load_params
+from fivebar import Setup, load_params
+from fivebar.setup import scheme_name
 from fivebar.dynamics import LinkageDynamics
 from fivebar.newmark import GeneralizedAlpha, Newmark, integrate
 from fivebar.steady import SteadyState, march, shooting, steady_state
 
 LINKS = ("L2", "L3")
+#: the default of steady_state(params): the parameter file's scheme and S
+DEFAULT = f"{scheme_name(Setup(load_params()).scheme)}, S={load_params().steps_per_period}"
 SWEEP_RANGE_RPM = (20.0, 120.0)
 
 
@@ -76,7 +79,7 @@ def accuracy(ss: SteadyState, ref: dict[str, float]) -> dict[str, float]:
 
 
 def sweep_state(P, w: float) -> SteadyState:
-    """One sweep point: the default (nonlinear) model at w r/min, shooting, S = 100, with
+    """One sweep point: the default (nonlinear) model at w r/min, shooting, the file's S, with
     GeneralizedAlpha(0.8): with the paper's rule the nonlinear shooting fails near 114 r/min
     (its discrete orbit is unstable, multiplier ~40, and a Newton step of a period diverges)."""
     return steady_state(P, crank_speed_rpm=w, scheme=GeneralizedAlpha(0.8))
@@ -128,7 +131,7 @@ def bench_steady(P, R: int) -> dict:
     out = {}
     for name, nl in (("linear", False), ("nonlinear", True)):
         t, ss = timed(lambda: steady_state(P, nonlinear=nl), R)
-        out[f"steady_state({name}) default: shooting, Newmark, S=100"] = {
+        out[f"steady_state({name}) default: shooting, {DEFAULT}"] = {
             "s": t, "periods": ss.periods, "largest_floquet_multiplier": float(abs(ss.floquet_multipliers[0]))}
     return out
 
@@ -171,20 +174,22 @@ def bench_to_steady(P, R: int, radau_runs: int) -> dict:
     t_ref, ref_ss = timed(lambda: steady_state(P, steps_per_period=1600), 1)
     ref = {L: ref_ss.peak_to_peak(L) for L in LINKS}
     out: dict = {
-        "reference": {"method": "shooting, Newmark (average acceleration), S=1600, nonlinear",
+        "reference": {"method": f"shooting, {scheme_name(Setup(P).scheme)}, S=1600, nonlinear",
                       "peak_to_peak_um": {L: 1e3 * v for L, v in ref.items()},
                       "largest_floquet_multiplier": float(abs(ref_ss.floquet_multipliers[0])),
                       "s_single_run": t_ref},
         "target_relative_error": 0.01,
     }
     cases = {
-        "fivebar shooting, Newmark (paper's rule), S=100 [steady_state default]":
+        f"fivebar shooting, {DEFAULT} [steady_state default]":
             lambda: steady_state(P),
+        "fivebar steady_state(tol=0.01): S chosen for 1 %":
+            lambda: steady_state(P, tol=0.01),
         "fivebar shooting, GeneralizedAlpha(0.8), S=50":
             lambda: steady_state(P, steps_per_period=50, scheme=GeneralizedAlpha(0.8)),
         "fivebar march from rest, GeneralizedAlpha(0.8), S=50, tol=1e-3":
             lambda: march(LinkageDynamics(P, steps_per_period=50), scheme=GeneralizedAlpha(0.8), tol=1e-3),
-        "fivebar march from rest, GeneralizedAlpha(0.8), S=100, tol=1e-3":
+        f"fivebar march from rest, GeneralizedAlpha(0.8), S={P.steps_per_period}, tol=1e-3":
             lambda: march(LinkageDynamics(P), scheme=GeneralizedAlpha(0.8), tol=1e-3),
     }
     for name, fn in cases.items():
@@ -205,7 +210,7 @@ def bench_to_steady(P, R: int, radau_runs: int) -> dict:
                      "relative_error": err,
                      "within_1_percent": bool(max(abs(e) for e in err.values()) <= 0.01), **stats}
         fast = [v["s"] for k, v in out.items() if k.startswith("fivebar") and v["within_1_percent"]]
-        default = out["fivebar shooting, Newmark (paper's rule), S=100 [steady_state default]"]["s"]
+        default = out[f"fivebar shooting, {DEFAULT} [steady_state default]"]["s"]
         out["ratio_radau_over_fastest_fivebar"] = out[name]["s"] / min(fast)
         out["ratio_radau_over_steady_state_default"] = out[name]["s"] / default
     return out
@@ -218,7 +223,7 @@ def bench_sweep(P, points: int, do200: bool) -> dict:
         sweep_state(P, float(w))
     serial = time.perf_counter() - t0
     out = {
-        "model": "default (nonlinear), steady_state(): shooting, GeneralizedAlpha(0.8), S=100",
+        "model": f"default (nonlinear), steady_state(): shooting, GeneralizedAlpha(0.8), S={P.steps_per_period}",
         "speeds_rpm": [SWEEP_RANGE_RPM[0], SWEEP_RANGE_RPM[1]],
         f"serial_{points}_speeds": {"s": serial, "steady_states_per_s": points / serial, "runs": 1},
         "extrapolated_200_speeds_2_processes_s": 200 * serial / points / 2,
@@ -236,7 +241,8 @@ def bench_sweep(P, points: int, do200: bool) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
+    ap = argparse.ArgumentParser(description="The older, per-part benchmark of issue 7 (targets of that "
+                                 "issue); bench_story.py tells the whole story of issue 10 in one run.")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--sweep-points", type=int, default=50)
     ap.add_argument("--radau-runs", type=int, default=1)
@@ -250,7 +256,7 @@ def main() -> None:
     t_all = time.perf_counter()
     result: dict = {
         "benchmark": "bench_dynamics",
-        "model": {"crank_speed_rpm": P.crank_speed_rpm, "steps_per_period": 100,
+        "model": {"crank_speed_rpm": P.crank_speed_rpm, "steps_per_period": P.steps_per_period,
                   "dofs": LinkageDynamics(P, steps_per_period=2).n},
         "machine": {"python": sys.version.split()[0], "numpy": np.__version__, "scipy": scipy.__version__,
                     "platform": platform.platform(), "cpus": os.cpu_count()},
