@@ -241,8 +241,8 @@ def bench_sweep(P, points: int, do200: bool) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description="The older, per-part benchmark of issue 7 (targets of that "
-                                 "issue); bench_story.py tells the whole story of issue 10 in one run.")
+    ap = argparse.ArgumentParser(description="The per-part benchmark of the dynamics (with the targets of an "
+                                 "earlier issue); bench_story.py tells the whole story of issue 10 in one run.")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--sweep-points", type=int, default=50)
     ap.add_argument("--radau-runs", type=int, default=1)
