@@ -33,8 +33,6 @@ import functools
 import http.server
 import os
 import re
-import shutil
-import subprocess
 import sys
 import threading
 import urllib.parse
@@ -42,24 +40,17 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from book_build import make, unavailable
 
 ROOT = Path(__file__).resolve().parents[1]
 HTML = ROOT / "_build" / "html"
 STAMP = HTML / ".fivebar-build-ok"  # written by `make book` after a build without warnings
 SCREENSHOTS = ROOT / "_build" / "screenshots"
-IN_CI = os.environ.get("CI", "").strip().lower() in {"true", "1", "yes"}
 sys.path.insert(0, str(ROOT / "book" / "_ext"))
 # One place for the browser and its headless flags (the PDF printer uses them too).
 from fivebar_build import CHROMIUM, CHROMIUM_ARGS  # noqa: E402  (book/_ext is not a package)
 #: A word the search page must find (it is in the introduction and in the chapters).
 SEARCH_WORD = "linkage"
-
-
-def _unavailable(reason: str) -> None:
-    """Fail under CI, skip elsewhere."""
-    if IN_CI:
-        pytest.fail(f"{reason} (required when CI=true)")
-    pytest.skip(reason)
 
 
 # --------------------------------------------------------------------------------------------
@@ -88,12 +79,7 @@ def book_is_fresh() -> bool:
 def book() -> Path:
     """``_build/html``, built (``make book``) if it is missing or stale."""
     if not book_is_fresh():
-        if shutil.which("make") is None:
-            _unavailable("the book is not built and `make` is not available")
-        run = subprocess.run(["make", "book"], cwd=ROOT, capture_output=True, text=True)
-        if run.returncode != 0 or not STAMP.is_file():
-            tail = "\n".join((run.stdout + run.stderr).splitlines()[-40:])
-            pytest.fail(f"`make book` failed (exit {run.returncode}):\n{tail}")
+        make("book", STAMP)
     return HTML
 
 
@@ -270,11 +256,11 @@ def server(book) -> Iterator[str]:
 def browser(book, tmp_path_factory):
     """A fresh headless Chromium context; requests to any other host are refused."""
     if not os.access(CHROMIUM, os.X_OK):
-        _unavailable(f"Chromium not found at {CHROMIUM} (apt-get install chromium)")
+        unavailable(f"Chromium not found at {CHROMIUM} (apt-get install chromium)")
     try:
         from playwright.sync_api import sync_playwright
     except ImportError:
-        _unavailable("playwright for Python is not installed")
+        unavailable("playwright for Python is not installed")
     pw = sync_playwright().start()
     context = pw.chromium.launch_persistent_context(
         str(tmp_path_factory.mktemp("chromium-profile")),

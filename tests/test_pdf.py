@@ -21,32 +21,23 @@ from __future__ import annotations
 import json
 import os
 import re
-import shutil
-import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 import yaml
 
+from book_build import make, unavailable
+
 ROOT = Path(__file__).resolve().parents[1]
 PDF = ROOT / "_build" / "pdf" / "fivebar.pdf"
 sys.path.insert(0, str(ROOT / "book" / "_ext"))
 import fivebar_build  # noqa: E402  (book/_ext is not a package)
 CHROMIUM = os.environ.get("FIVEBAR_CHROMIUM", "/usr/bin/chromium")
-IN_CI = os.environ.get("CI", "").strip().lower() in {"true", "1", "yes"}
 #: Today's book prints on about 210 A4 pages; a truncated or duplicated print falls outside.
 PAGES = (100, 600)
 
 pypdf = pytest.importorskip("pypdf")
-
-
-def _unavailable(reason: str) -> None:
-    if IN_CI:
-        pytest.fail(f"{reason} (required when CI=true)")
-    pytest.skip(reason)
-
-
 
 
 def _fresh(target: Path) -> bool:
@@ -58,13 +49,8 @@ def _fresh(target: Path) -> bool:
 def pdf() -> Path:
     if not _fresh(PDF):
         if not Path(CHROMIUM).is_file():
-            _unavailable(f"Chromium not found at {CHROMIUM}: the PDF cannot be printed")
-        if shutil.which("make") is None:
-            _unavailable("the PDF is not built and `make` is not available")
-        run = subprocess.run(["make", "pdf"], cwd=ROOT, capture_output=True, text=True)
-        if run.returncode != 0 or not PDF.is_file():
-            tail = "\n".join((run.stdout + run.stderr).splitlines()[-40:])
-            pytest.fail(f"`make pdf` failed (exit {run.returncode}):\n{tail}")
+            unavailable(f"Chromium not found at {CHROMIUM}: the PDF cannot be printed")
+        make("pdf", PDF)
     return PDF
 
 
