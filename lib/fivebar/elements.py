@@ -37,10 +37,9 @@ the torsional mass.  :math:`(\bar K_{11})_{12}` is read as 0 (errata E11).
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Literal
-
-import functools
 
 import numpy as np
 from numpy.polynomial import polynomial as P
