@@ -53,7 +53,8 @@ __all__ = ["LinkageDynamics", "modal_damping"]
 
 #: (params without the speed, S, mesh, motors) -> (M, C, K, F / Omega^2) at the S step times
 _SAMPLE_CACHE: dict = {}
-_SAMPLE_CACHE_SIZE = 4
+#: at most this many entries, and this many bytes (the oldest go first; the newest stays)
+_SAMPLE_CACHE_SIZE, _SAMPLE_CACHE_BYTES = 8, 512 * 2**20
 
 
 def _recent(cache: dict, key, make, size: int = 8):
@@ -69,8 +70,8 @@ def _recent(cache: dict, key, make, size: int = 8):
 
 _MODELS: dict = {}
 _SPEED_FREE: dict = {}
-#: ("geometry" or "elements", sample key) -> the nonlinear force's configuration at the S steps
-_GEOMETRY: dict = {}
+#: sample key -> the nonlinear force's element data at the S step times (the compiled loop's)
+_ELEMENTS: dict = {}
 
 
 def _model(params: Params, elements_per_link, motors: bool) -> Model:
@@ -162,7 +163,7 @@ class LinkageDynamics:
             M, C, K, F = self._sampled(t, elements_per_link, motors)
         # the nonlinear force's view of the configuration at the S step times (the element
         # rotations), so that f_nl(u, t) at a step time does no kinematics: made when first
-        # needed, and like the samples the same at every speed
+        # needed; the compiled loop's element data are, like the samples, the same at every speed
         self._geometry = self._elements = None
         self.step_data = PeriodicStepData(M, C, K, F, t0=0.0, period=self.period)
 
@@ -198,17 +199,12 @@ class LinkageDynamics:
                 X.flags.writeable = False
             hit = (M, C, K, F / W2)
         _SAMPLE_CACHE[key] = hit  # most recent last
-        while len(_SAMPLE_CACHE) > _SAMPLE_CACHE_SIZE:
+        while len(_SAMPLE_CACHE) > 1 and (
+                len(_SAMPLE_CACHE) > _SAMPLE_CACHE_SIZE
+                or sum(X.nbytes for entry in _SAMPLE_CACHE.values() for X in entry) > _SAMPLE_CACHE_BYTES):
             _SAMPLE_CACHE.pop(next(iter(_SAMPLE_CACHE)))
         M, C, K, Fn = hit
         return M, C, K, Fn * W2
-
-    def _at_step_times(self, what: str, make):
-        """``make()``, of a quantity at the S step times that does not depend on the speed,
-        kept beside the samples (same key)."""
-        if self._key is None:
-            return make()
-        return _recent(_GEOMETRY, (what, self._key), make, size=2 * _SAMPLE_CACHE_SIZE)
 
     def _nested(self, key: tuple, t: NDArray, W2: float) -> tuple | None:
         """The samples at S from those at 2 S (every other one) or at S / 2 (computing only the
@@ -284,7 +280,7 @@ class LinkageDynamics:
                 return (np.ascontiguousarray(Ge), np.ascontiguousarray(ae),
                         np.ascontiguousarray(self._nl.element_weights),
                         np.ascontiguousarray(self._nl.element_dofs, dtype=np.int64))
-            self._elements = self._at_step_times("elements", make)
+            self._elements = make() if self._key is None else _recent(_ELEMENTS, self._key, make)
         return self._elements
 
     def nonlinear_geometry(self, t: float) -> ElementGeometry:
@@ -298,9 +294,8 @@ class LinkageDynamics:
         x = float(t) / self.dt
         k = round(x)
         if abs(x - k) <= 1e-9 * max(1.0, abs(x)):
-            if self._geometry is None:
-                self._geometry = self._at_step_times(
-                    "geometry", lambda: self._nl.geometry(*self.crank_angles(self.t)))
+            if self._geometry is None:  # (S, 2, Gauss points, n): per model, not kept beyond it
+                self._geometry = self._nl.geometry(*self.crank_angles(self.t))
             return self._geometry.at(k % self.steps)
         th1, th4 = self.crank_angles(t)
         return self._nl.geometry(float(th1), float(th4))
@@ -331,16 +326,21 @@ class LinkageDynamics:
         """
         x = float(t) / self.dt
         k = round(x)
+        tg = float(t)  # where the nonlinear force's configuration is taken
         if abs(x - k) <= 1e-9 * max(1.0, abs(x)):  # a step time: the sampled matrices
             K, F = self.step_data.K[k % self.steps], self.step_data.F[k % self.steps]
+            tg = float(self.t[k % self.steps])
         else:
             _, _, K, F = self._sample(np.asarray(float(t)))
         if self._nl is None:
             return np.linalg.solve(K, F)
         scale = float(np.linalg.norm(F)) + 1e-300
+        # this one instant's configuration (the same numbers as the step-time table, which is
+        # not built for it)
+        geometry = self._nl.geometry(*(float(a) for a in self.crank_angles(tg)))
 
         def residual(u, lam):
-            f, Kt = self.nonlinear(u, t)
+            f, Kt = self._nl.evaluate(u, geometry)
             return K @ u + f - lam * F, Kt
 
         u = np.zeros(self.n)
