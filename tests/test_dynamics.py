@@ -312,3 +312,22 @@ def test_newton_picard_shooting_reaches_the_newton_orbit(nonlinear, monkeypatch)
         a, b = picard.midpoint(link), newton.midpoint(link)
         assert np.abs(a - b).max() <= 1e-7 * np.ptp(b)
     assert np.allclose(picard.floquet_multipliers[:4], newton.floquet_multipliers[:4], rtol=1e-6)
+
+
+def test_sample_cache_is_bounded_by_memory(monkeypatch):
+    """The model cache drops its oldest entries when the arrays it holds pass the byte bound,
+    and always keeps the newest."""
+    from fivebar import dynamics as dmod
+
+    p = load_params()
+    dmod._SAMPLE_CACHE.clear()
+    LinkageDynamics(p, steps_per_period=40, motors=False)
+    one = dmod._nbytes(next(iter(dmod._SAMPLE_CACHE.values())))
+    monkeypatch.setattr(dmod, "_CACHE_BYTES", int(3.05 * one))  # sizes go with S: 40 + 30 + 50 fit,
+    for S in (30, 50, 70):  # then 70 pushes out the two oldest
+        LinkageDynamics(p, steps_per_period=S, motors=False)
+        assert len(dmod._SAMPLE_CACHE) == {30: 2, 50: 3, 70: 2}[S]
+    assert [k[1] for k in dmod._SAMPLE_CACHE] == [50, 70]
+    monkeypatch.setattr(dmod, "_CACHE_BYTES", 1)
+    LinkageDynamics(p, steps_per_period=90, motors=False)
+    assert [k[1] for k in dmod._SAMPLE_CACHE] == [90]  # the newest stays

@@ -53,25 +53,34 @@ __all__ = ["LinkageDynamics", "modal_damping"]
 
 #: (params without the speed, S, mesh, motors) -> (M, C, K, F / Omega^2) at the S step times
 _SAMPLE_CACHE: dict = {}
-#: at most this many entries, and this many bytes (the oldest go first; the newest stays)
-_SAMPLE_CACHE_SIZE, _SAMPLE_CACHE_BYTES = 8, 512 * 2**20
+#: the caches of quantities at the step times keep at most this many entries and bytes each
+_CACHE_SIZE, _CACHE_BYTES = 8, 512 * 2**20
 
 
-def _recent(cache: dict, key, make, size: int = 8):
-    """``cache[key]``, made by ``make()`` on a miss; the ``size`` most recent are kept."""
+def _nbytes(obj) -> int:
+    """Bytes of the arrays in ``obj`` (an array, or a tuple of them, nested)."""
+    if isinstance(obj, np.ndarray):
+        return obj.nbytes
+    return sum(_nbytes(x) for x in obj) if isinstance(obj, tuple) else 0
+
+
+def _recent(cache: dict, key, make, size: int = 8, max_bytes: int | None = None):
+    """``cache[key]``, made by ``make()`` on a miss; the ``size`` most recent are kept, and
+    with ``max_bytes`` the oldest go while the arrays held exceed it (the newest stays)."""
     hit = cache.pop(key, None)
     if hit is None:
         hit = make()
     cache[key] = hit
-    while len(cache) > size:
+    while len(cache) > 1 and (len(cache) > size or (
+            max_bytes is not None and sum(_nbytes(v) for v in cache.values()) > max_bytes)):
         cache.pop(next(iter(cache)))
     return hit
 
 
 _MODELS: dict = {}
 _SPEED_FREE: dict = {}
-#: sample key -> the nonlinear force's element data at the S step times (the compiled loop's)
-_ELEMENTS: dict = {}
+#: ("geometry" or "elements", sample key) -> the nonlinear force's configuration at the S steps
+_GEOMETRY: dict = {}
 
 
 def _model(params: Params, elements_per_link, motors: bool) -> Model:
@@ -163,7 +172,7 @@ class LinkageDynamics:
             M, C, K, F = self._sampled(t, elements_per_link, motors)
         # the nonlinear force's view of the configuration at the S step times (the element
         # rotations), so that f_nl(u, t) at a step time does no kinematics: made when first
-        # needed; the compiled loop's element data are, like the samples, the same at every speed
+        # needed, and like the samples the same at every speed
         self._geometry = self._elements = None
         self.step_data = PeriodicStepData(M, C, K, F, t0=0.0, period=self.period)
 
@@ -190,21 +199,24 @@ class LinkageDynamics:
             return self._sample(t)
         self._key = key
         W2 = p.crank_speed ** 2
-        hit = _SAMPLE_CACHE.pop(key, None)
-        if hit is None:
+
+        def make():
             hit = self._nested(key, t, W2)
-        if hit is None:
-            M, C, K, F = self._sample(t)
-            for X in (M, C, K):
-                X.flags.writeable = False
-            hit = (M, C, K, F / W2)
-        _SAMPLE_CACHE[key] = hit  # most recent last
-        while len(_SAMPLE_CACHE) > 1 and (
-                len(_SAMPLE_CACHE) > _SAMPLE_CACHE_SIZE
-                or sum(X.nbytes for entry in _SAMPLE_CACHE.values() for X in entry) > _SAMPLE_CACHE_BYTES):
-            _SAMPLE_CACHE.pop(next(iter(_SAMPLE_CACHE)))
-        M, C, K, Fn = hit
+            if hit is None:
+                M, C, K, F = self._sample(t)
+                for X in (M, C, K):
+                    X.flags.writeable = False
+                hit = (M, C, K, F / W2)
+            return hit
+        M, C, K, Fn = _recent(_SAMPLE_CACHE, key, make, _CACHE_SIZE, _CACHE_BYTES)
         return M, C, K, Fn * W2
+
+    def _at_step_times(self, what: str, make):
+        """``make()``, of a quantity at the S step times that does not depend on the speed,
+        kept beside the samples (same key)."""
+        if self._key is None:
+            return make()
+        return _recent(_GEOMETRY, (what, self._key), make, 2 * _CACHE_SIZE, _CACHE_BYTES)
 
     def _nested(self, key: tuple, t: NDArray, W2: float) -> tuple | None:
         """The samples at S from those at 2 S (every other one) or at S / 2 (computing only the
@@ -280,7 +292,7 @@ class LinkageDynamics:
                 return (np.ascontiguousarray(Ge), np.ascontiguousarray(ae),
                         np.ascontiguousarray(self._nl.element_weights),
                         np.ascontiguousarray(self._nl.element_dofs, dtype=np.int64))
-            self._elements = make() if self._key is None else _recent(_ELEMENTS, self._key, make)
+            self._elements = self._at_step_times("elements", make)
         return self._elements
 
     def nonlinear_geometry(self, t: float) -> ElementGeometry:
@@ -294,8 +306,9 @@ class LinkageDynamics:
         x = float(t) / self.dt
         k = round(x)
         if abs(x - k) <= 1e-9 * max(1.0, abs(x)):
-            if self._geometry is None:  # (S, 2, Gauss points, n): per model, not kept beyond it
-                self._geometry = self._nl.geometry(*self.crank_angles(self.t))
+            if self._geometry is None:
+                self._geometry = self._at_step_times(
+                    "geometry", lambda: self._nl.geometry(*self.crank_angles(self.t)))
             return self._geometry.at(k % self.steps)
         th1, th4 = self.crank_angles(t)
         return self._nl.geometry(float(th1), float(th4))
@@ -326,21 +339,16 @@ class LinkageDynamics:
         """
         x = float(t) / self.dt
         k = round(x)
-        tg = float(t)  # where the nonlinear force's configuration is taken
         if abs(x - k) <= 1e-9 * max(1.0, abs(x)):  # a step time: the sampled matrices
             K, F = self.step_data.K[k % self.steps], self.step_data.F[k % self.steps]
-            tg = float(self.t[k % self.steps])
         else:
             _, _, K, F = self._sample(np.asarray(float(t)))
         if self._nl is None:
             return np.linalg.solve(K, F)
         scale = float(np.linalg.norm(F)) + 1e-300
-        # this one instant's configuration (the same numbers as the step-time table, which is
-        # not built for it)
-        geometry = self._nl.geometry(*(float(a) for a in self.crank_angles(tg)))
 
         def residual(u, lam):
-            f, Kt = self._nl.evaluate(u, geometry)
+            f, Kt = self.nonlinear(u, t)
             return K @ u + f - lam * F, Kt
 
         u = np.zeros(self.n)
