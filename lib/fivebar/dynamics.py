@@ -66,7 +66,12 @@ def _nbytes(obj) -> int:
 
 def _recent(cache: dict, key, make, size: int = 8, max_bytes: int | None = None):
     """``cache[key]``, made by ``make()`` on a miss; the ``size`` most recent are kept, and
-    with ``max_bytes`` the oldest go while the arrays held exceed it (the newest stays)."""
+    with ``max_bytes`` the oldest go while the arrays held exceed it (the newest stays).  An
+    unhashable key (a parameter set holding a list, say) is not cached: ``make()`` each time."""
+    try:
+        hash(key)
+    except TypeError:
+        return make()
     hit = cache.pop(key, None)
     if hit is None:
         hit = make()
@@ -87,12 +92,8 @@ def _model(params: Params, elements_per_link, motors: bool) -> Model:
     """:func:`fivebar.assembly.build_model`, built once per parameter set, mesh and motors (the
     model is not changed after it is built; the steady state to a tolerance builds one
     :class:`LinkageDynamics` per S)."""
-    try:
-        key = (params, elements_per_link, motors)
-        hash(key)
-    except TypeError:
-        return build_model(params, elements_per_link=elements_per_link, motors=motors)
-    return _recent(_MODELS, key, lambda: build_model(params, elements_per_link=elements_per_link, motors=motors))
+    return _recent(_MODELS, (params, elements_per_link, motors),
+                   lambda: build_model(params, elements_per_link=elements_per_link, motors=motors))
 
 
 def _speed_free(params: Params) -> Params:
@@ -193,8 +194,9 @@ class LinkageDynamics:
         if self._P is not None:
             return self._sample(t)
         p = self.params
+        key = (_speed_free(p), self.steps, elements_per_link, bool(motors))
         try:
-            key = (_speed_free(p), self.steps, elements_per_link, bool(motors))
+            hash(key)
         except TypeError:  # an unhashable parameter set: no cache
             return self._sample(t)
         self._key = key
