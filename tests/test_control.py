@@ -304,6 +304,12 @@ def test_bad_inputs_name_the_value():
         feedforward(P, [0.0], crank_speed_rpm=-5)
     with pytest.raises(FivebarError, match="n_modes = 0 is not allowed"):
         elastic_frequencies(P, [0.0], n_modes=0)
+    with pytest.raises(FivebarError, match="samples = 0 is not allowed"):
+        pd_servo(P, 5.0, samples=0)
+    with pytest.raises(FivebarError, match="damping_ratio = 'low' is not allowed"):
+        control_modal_model(P, 0.0, 0.0, damping_ratio="low")
+    with pytest.raises(FivebarError, match=r"t = \['now'\] is not allowed: it must be a finite number \(s\)"):
+        feedforward(P, ["now"])
     with pytest.raises(ValueError, match="channel = 3"):
         control_modal_model(P, 0.0, 0.0).loop(pd_servo(P, 5.0), 3)
     with pytest.raises(ValueError, match="damped_modes = 7"):

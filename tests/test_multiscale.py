@@ -458,6 +458,12 @@ def test_newton_failure_raises_a_named_error():
     assert "t = 0.25 s" in str(info.value) and info.value.iterations <= 5 and info.value.residual >= 1.0
     with pytest.raises(NewtonConvergenceError, match="singular Jacobian"):
         newton(lambda x: x**2 + 1.0, [0.0], lambda x: np.diag(2 * x))
+    with pytest.raises(FivebarError, match=r"x0 = \['a'\] is not allowed"):
+        newton(lambda x: x, ["a"])
+    with pytest.raises(FivebarError, match="tol = -1.0 is not allowed"):
+        newton(lambda x: x, [1.0], tol=-1.0)
+    with pytest.raises(FivebarError, match="maxiter = 0 is not allowed"):
+        newton(lambda x: x, [1.0], maxiter=0)
     root = newton(lambda x: x**2 - 2.0, [1.0], lambda x: np.diag(2 * x), tol=1e-14)
     assert root[0] == pytest.approx(np.sqrt(2), rel=1e-14)
 

@@ -96,6 +96,10 @@ def test_modal_model_structure(dyn_lin):
         modal_model(dyn_lin, 2, nonlinear=True)  # the linear dynamics has no nonlinear force
     with pytest.raises(MultiscaleError, match="params = None is not allowed without dynamics"):
         multiple_scales()
+    with pytest.raises(MultiscaleError, match="nonlinear_steps = 0 is not allowed: give an integer in 1..100"):
+        modal_model(dyn_lin, 2, nonlinear=False, nonlinear_steps=0)
+    with pytest.raises(MultiscaleError, match="detuning = 'wide' is not allowed"):
+        multiple_scales(dynamics=dyn_lin, detuning="wide")
 
 
 def test_first_approximation_is_the_modal_particular_solution(dyn_lin):

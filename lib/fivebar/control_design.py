@@ -85,6 +85,7 @@ def pd_servo(
     """
     bw = _positive("bandwidth", bandwidth, "Hz")
     z = _positive("zeta", zeta)
+    samples = _count("samples", samples, 1, 10**6)
     if measure not in _MEASURES:
         raise InputError(f"measure = {measure!r} is not allowed: use one of {list(_MEASURES)}")
     from .rigid import mass_matrix

@@ -249,7 +249,7 @@ def control_modal_model(
     fl = linkage or FlexibleLinkage(params, elements_per_link, rotor_inertia_scale)
     n_modes = _count("n_modes", n_modes, 1, fl.n - 2)
     zeta = params.damping_ratio if damping_ratio is None else damping_ratio
-    if isinstance(zeta, bool) or not (0.0 <= float(zeta) < 1.0):
+    if isinstance(zeta, bool) or not isinstance(zeta, (int, float, np.integer, np.floating)) or not 0.0 <= zeta < 1.0:
         raise InputError(f"damping_ratio = {damping_ratio!r} is not allowed: it must lie in [0, 1)")
     M, K = fl.matrices(th1, th4)
     Phi_r = fl.rigid_modes(th1, th4)

@@ -114,13 +114,13 @@ DEFAULT_OUTPUTS = ("theta1", "theta4", "w2", "w3")
 
 
 # --- input checks (shared by the control modules) ----------------------------------------------
-def _finite(name: str, value: ArrayLike) -> NDArray:
+def _finite(name: str, value: ArrayLike, unit: str = "rad") -> NDArray:
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise InputError(f"{name} = {value!r} is not allowed: it must be a finite number (rad)") from None
+        raise InputError(f"{name} = {value!r} is not allowed: it must be a finite number ({unit})") from None
     if not np.all(np.isfinite(a)):
-        raise InputError(f"{name} = {value!r} is not allowed: it must be finite (rad)")
+        raise InputError(f"{name} = {value!r} is not allowed: it must be finite ({unit})")
     return a
 
 
@@ -217,7 +217,7 @@ def feedforward(
     ndarray, shape ``t.shape + (2,)``
         (tau1, tau4), positive anticlockwise.
     """
-    t = _finite("t", t)
+    t = _finite("t", t, "s")
     W = None if crank_speed_rpm is None else _positive("crank_speed_rpm", crank_speed_rpm, "r/min") * math.pi / 30.0
     return inverse_dynamics(params, *crank_laws(params, t, W), inertia=rigid_inertia(params, rotor_inertia_scale))
 
@@ -392,7 +392,10 @@ class FlexibleLinkage:
         """
         w2, V = scipy.linalg.eigh(K, M)
         if not (np.all(np.abs(w2[:2]) < 1e-8 * w2[2]) and w2[2] > 0):
-            raise ComputationError(f"expected exactly two rigid modes, found omega^2 = {w2[:3]}")
+            raise ComputationError(
+                f"K_p has not exactly two rigid modes: its lowest omega^2 are {w2[:3]} rad^2/s^2 (two zeros and "
+                "a positive third expected, the two cranks' free rotations)"
+            )
         Ve = V[:, 2:]
         # remove the round-off component along the rigid modes, renormalise
         Mr = Phi_r.T @ M @ Phi_r

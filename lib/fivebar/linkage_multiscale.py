@@ -265,6 +265,10 @@ def modal_model(
             W, psi = stiff.amplitude[i].reshape(k, k), stiff.phase[i].reshape(k, k)
             par.append(Parametric(f, W * np.cos(psi), 0.0))
             par.append(Parametric(f, W * np.sin(psi), np.pi / 2))
+    if nonlinear_steps is not None and (
+        isinstance(nonlinear_steps, bool) or not isinstance(nonlinear_steps, (int, np.integer)) or not 1 <= nonlinear_steps <= S
+    ):
+        raise MultiscaleError(f"nonlinear_steps = {nonlinear_steps!r} is not allowed: give an integer in 1..{S} (S) or None")
     if nonlinear:
         steps = range(S) if nonlinear_steps is None else np.unique(np.linspace(0, S, int(nonlinear_steps), endpoint=False).astype(int))
         D, G = modal_nonlinear_coefficients(dyn, B, steps)
@@ -380,6 +384,10 @@ def multiple_scales(
         dyn, n_modes, basis=basis, frequencies=frequencies, kinematic=kinematic, fourier_terms=fourier_terms,
         nonlinear=nonlinear is not False and dyn.nonlinear is not None, parametric=parametric,
     )
+    if detuning is not None and (
+        isinstance(detuning, bool) or not isinstance(detuning, (int, float, np.floating)) or not (np.isfinite(detuning) and detuning >= 0)
+    ):
+        raise MultiscaleError(f"detuning = {detuning!r} is not allowed: give a finite number >= 0 (relative) or None")
     tol = default_detuning(model) if detuning is None else float(detuning)
     for _ in range(10):
         flow = modulation_equations(model.system, model.harmonics, model.parametric, detuning=tol)

@@ -7,11 +7,13 @@ every Newton iteration, :class:`fivebar.newmark.NewtonConvergenceError`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import InputError, InputTypeError
 from .newmark import NewtonConvergenceError
 
 __all__ = ["newton"]
@@ -74,9 +76,22 @@ def newton(
         No convergence in ``maxiter`` iterations, a singular Jacobian, a non-finite residual or
         a step that no halving makes decrease the residual; the message names the residual,
         the iterations and (if given) the time.
+    fivebar.errors.InputError
+        ``x0`` not a finite real array, ``tol`` < 0 or ``maxiter`` < 1.
     """
+    if not callable(fun):
+        raise InputTypeError(f"fun is a {type(fun).__name__}: it must be a callable x -> residual")
+    try:
+        x = np.array(x0, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputError(f"x0 = {x0!r} is not allowed: it must be a real array") from None
+    if not np.all(np.isfinite(x)):
+        raise InputError(f"x0 = {x0!r} is not allowed: it must be finite")
+    if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) or not (math.isfinite(tol) and tol >= 0):
+        raise InputError(f"tol = {tol!r} is not allowed: it must be a finite number >= 0 (units of fun)")
+    if isinstance(maxiter, bool) or not isinstance(maxiter, (int, np.integer)) or maxiter < 1:
+        raise InputError(f"maxiter = {maxiter!r} is not allowed: it must be an integer >= 1")
     at = "" if t is None else f" at t = {t:.9g} s"
-    x = np.array(x0, dtype=float).ravel()
     r = np.asarray(fun(x), dtype=float).ravel()
     norm = float(np.max(np.abs(r))) if r.size else 0.0
     if not np.isfinite(norm):
