@@ -18,7 +18,6 @@ rigid modes and a few elastic modes at a frozen configuration and writes the res
 (:math:`\boldsymbol\Phi_r^\top\mathbf B = \mathbf I`), the modal damping ratio
 :math:`\zeta` of the parameters on every elastic mode and none on the rigid modes (a rigid
 rotation dissipates nothing).  :math:`\boldsymbol\eta_r` is the rigid part of the crank angles.
-
 """
 
 from __future__ import annotations

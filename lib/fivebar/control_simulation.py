@@ -18,7 +18,6 @@ balances the rigid modes exactly), and :math:`\boldsymbol\tau_{fb} = -\mathbf G_
 integrates it with :func:`fivebar.newmark.integrate`.  With the rotors held on the nominal
 motion (an ideal servo) it is exactly the linear prescribed-motion model.
 
-
 What the model leaves out is listed in :mod:`fivebar.free_rotors`.
 """
 

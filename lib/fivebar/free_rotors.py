@@ -66,7 +66,8 @@ prescribed-motion model with motors (:func:`fivebar.modal.natural_frequencies`).
 **Outputs.**  ``theta1, theta4``: rotor angles :math:`\varphi_i` (what the motor's encoder
 reads; collocated with the torque); ``omega1, omega4``: their rates; ``crank1, crank4``: the
 crank-root rotations :math:`s_A, s_E` (non-collocated: through the shaft); ``crank_rate1,
-crank_rate4``; ``rigid1, rigid4``: :math:`\boldsymbol\eta_r`; ``w2, w3``: the transverse
+crank_rate4``; ``rigid1, rigid4``: :math:`\boldsymbol\eta_r` (the rigid part of the crank angles in
+the modal reduction of :mod:`fivebar.control_model`); ``w2, w3``: the transverse
 displacement of the midpoint of L2, L3 relative to the rigid motion at the rotor angles,
 :math:`w = \mathbf c^\top(\mathbf p - \boldsymbol\Phi_r\boldsymbol\varphi)`
 (:meth:`fivebar.assembly.Model.link_displacement`), the same quantity as the prescribed-motion
