@@ -1,6 +1,7 @@
 """Linearised control model with free rotors: rigid modes, limits, frequency response, loops.
 
-References used here are independent of fivebar.control: the rigid Lagrange dynamics of
+References used here are independent of the control modules (free_rotors, control_model,
+control_design, control_simulation): the rigid Lagrange dynamics of
 fivebar.rigid, the prescribed-motion model (fivebar.modal, fivebar.dynamics, fivebar.steady),
 Newmark time integration of the full-order matrices, and closed forms.
 """
@@ -9,23 +10,11 @@ import numpy as np
 import pytest
 from crank_laws import general_laws as _general_laws
 
-from fivebar import load_params, natural_frequencies
-from fivebar.control import (
-    DEFAULT_OUTPUTS,
-    CycleSimulation,
-    FlexibleLinkage,
-    Servo,
-    damping_lqr,
-    elastic_frequencies,
-    feedforward,
-    linear_model,
-    control_modal_model,
-    models_along_cycle,
-    pd_servo,
-    rigid_inertia,
-    schedule,
-    simulate_cycle,
-)
+from fivebar import FivebarError, load_params, natural_frequencies
+from fivebar.control_design import Servo, damping_lqr, pd_servo, schedule
+from fivebar.control_model import control_modal_model, linear_model, models_along_cycle
+from fivebar.control_simulation import CycleSimulation, simulate_cycle
+from fivebar.free_rotors import DEFAULT_OUTPUTS, FlexibleLinkage, elastic_frequencies, feedforward, rigid_inertia
 from fivebar.elements import motor_element
 from fivebar.kinematics import crank_laws
 from fivebar.newmark import System, integrate
@@ -109,6 +98,17 @@ def test_feedforward_is_the_rigid_inverse_dynamics_and_the_fe_load():
     load = np.einsum("kia,kij,kj->ka", Phi, M, FL.rigid_acceleration(*g))
     tau = inverse_dynamics(P, *g, inertia=rigid_inertia(P))
     assert np.allclose(load, tau, rtol=1e-10, atol=1e-10 * np.abs(tau).max())
+
+
+def test_feedforward_scales_with_the_square_of_the_crank_speed():
+    """At constant crank speed and without gravity the rigid torque is c(theta) Omega^2: the same
+    crank angles at twice the speed (r/min) need four times the torque."""
+    assert P.gravity == 0.0
+    rpm = P.crank_speed_rpm
+    t = np.linspace(0.0, P.period, 13)
+    tau = feedforward(P, t)
+    assert np.allclose(feedforward(P, t / 2, crank_speed_rpm=2 * rpm), 4 * tau, rtol=1e-12, atol=0)
+    assert np.allclose(feedforward(P, t, crank_speed_rpm=rpm), tau, rtol=0, atol=0)
 
 
 def test_feedforward_power_balance_with_the_fe_kinetic_energy():
@@ -197,7 +197,7 @@ def test_collocated_channel_interlaces(th):
 def test_models_along_cycle_and_frequencies():
     phi = np.array([0.0, 1.0, 2.0])
     systems = models_along_cycle(P, phi, n_modes=3)
-    f = elastic_frequencies(P, phi, n=3)
+    f = elastic_frequencies(P, phi, n_modes=3)
     for s, fi in zip(systems, f):
         wn = np.sort(np.abs(s.poles()))
         assert np.allclose(wn[4::2] / (2 * np.pi), fi, rtol=1e-9)
@@ -241,7 +241,7 @@ def test_schedule_interpolates_periodically():
 def test_reference_from_the_prescribed_steady_state():
     """The ideal-servo elastic motion mapped into the free-rotor coordinates gives back the
     steady state's own midpoint deflection (fivebar.steady.SteadyState.midpoint)."""
-    from fivebar.control import _reference
+    from fivebar.control_simulation import _reference
     from fivebar.steady import steady_state
 
     S = 40
@@ -298,10 +298,22 @@ def test_bad_inputs_name_the_value():
         pd_servo(P, 5.0, measure="tip")
     with pytest.raises(ValueError, match="Servo.kp"):
         Servo((1.0, -1.0), (0.1, 0.1))
+    with pytest.raises(FivebarError, match="Servo.kd = 3.0 is not allowed"):
+        Servo((1.0, 1.0), 3.0)
+    with pytest.raises(FivebarError, match="crank_speed_rpm = -5 is not allowed"):
+        feedforward(P, [0.0], crank_speed_rpm=-5)
+    with pytest.raises(FivebarError, match="n_modes = 0 is not allowed"):
+        elastic_frequencies(P, [0.0], n_modes=0)
+    with pytest.raises(FivebarError, match="samples = 0 is not allowed"):
+        pd_servo(P, 5.0, samples=0)
+    with pytest.raises(FivebarError, match="damping_ratio = 'low' is not allowed"):
+        control_modal_model(P, 0.0, 0.0, damping_ratio="low")
+    with pytest.raises(FivebarError, match=r"t = \['now'\] is not allowed: it must be a finite number \(s\)"):
+        feedforward(P, ["now"])
     with pytest.raises(ValueError, match="channel = 3"):
         control_modal_model(P, 0.0, 0.0).loop(pd_servo(P, 5.0), 3)
-    with pytest.raises(ValueError, match="modes = 7"):
-        damping_lqr(control_modal_model(P, 0.0, 0.0), pd_servo(P, 5.0), modes=7)
+    with pytest.raises(ValueError, match="damped_modes = 7"):
+        damping_lqr(control_modal_model(P, 0.0, 0.0), pd_servo(P, 5.0), damped_modes=7)
     with pytest.raises(ValueError, match="do not match"):
         schedule(np.zeros((2, 3)), [0.0, 1.0, 2.0])
     with pytest.raises(ValueError, match="increase strictly"):

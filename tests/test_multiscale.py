@@ -8,20 +8,16 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.special import ellipk
 
-from fivebar.multiscale import (
-    Harmonic,
-    ModalSystem,
-    MultiscaleError,
-    NewtonConvergenceError,
-    Parametric,
+from fivebar.errors import FivebarError
+from fivebar.modal_equations import Harmonic, ModalSystem, MultiscaleError, Parametric
+from fivebar.multiscale import first_approximation, modulation_equations, particular_amplitudes
+from fivebar.newmark import NewtonConvergenceError
+from fivebar.newton import newton
+from fivebar.response_curves import (
     backbone,
-    first_approximation,
     frequency_response,
-    modulation_equations,
-    newton,
     parametric_response,
     parametric_transition_curves,
-    particular_amplitudes,
     primary_resonance,
 )
 
@@ -452,6 +448,7 @@ def test_acceleration_is_equation_34():
         + sum(g[r, s, q, u] * e[s] * e[q] * e[u] for s in range(n) for q in range(n) for u in range(n))
         for r in range(n)
     ]
+    assert sys2.n_modes == 2
     assert sys2.acceleration(t, e, v, [h], [p]) == pytest.approx(expected, rel=1e-13)
 
 
@@ -461,6 +458,12 @@ def test_newton_failure_raises_a_named_error():
     assert "t = 0.25 s" in str(info.value) and info.value.iterations <= 5 and info.value.residual >= 1.0
     with pytest.raises(NewtonConvergenceError, match="singular Jacobian"):
         newton(lambda x: x**2 + 1.0, [0.0], lambda x: np.diag(2 * x))
+    with pytest.raises(FivebarError, match=r"x0 = \['a'\] is not allowed"):
+        newton(lambda x: x, ["a"])
+    with pytest.raises(FivebarError, match="tol = -1.0 is not allowed"):
+        newton(lambda x: x, [1.0], tol=-1.0)
+    with pytest.raises(FivebarError, match="maxiter = 0 is not allowed"):
+        newton(lambda x: x, [1.0], maxiter=0)
     root = newton(lambda x: x**2 - 2.0, [1.0], lambda x: np.diag(2 * x), tol=1e-14)
     assert root[0] == pytest.approx(np.sqrt(2), rel=1e-14)
 
@@ -470,7 +473,7 @@ def test_incommensurate_resonances_have_no_steady_state():
     hs = [Harmonic(1.01, [0.1]), Harmonic(1.03, [0.1])]
     flow = modulation_equations(sys1, hs)
     assert flow.nu is None
-    with pytest.raises(MultiscaleError, match="incommensurate"):
+    with pytest.raises(MultiscaleError, match=r"detuning = 0.05: .*incommensurate"):
         flow.steady_state()
     assert np.all(np.isfinite(flow.modulation(1.0, [0.1 + 0.2j])))  # the transient flow still works
 
@@ -483,19 +486,22 @@ def test_incommensurate_resonances_have_no_steady_state():
         (lambda: ModalSystem([1.0, 2.0], alpha=np.zeros((2, 3))), r"alpha has shape \(2, 3\), expected \(2, 2\)"),
         (lambda: ModalSystem([1.0], gamma=np.zeros((1, 1, 1))), r"gamma has shape"),
         (lambda: ModalSystem([np.nan]), r"w\[0\] = nan is not finite"),
-        (lambda: ModalSystem(["a"]), r"w = \['a'\] is not a real number"),
+        (lambda: ModalSystem(["a"]), r"w = \['a'\] is not allowed: it must be a real number"),
         (lambda: Harmonic(-1.0, [1.0]), r"harmonic frequency = -1 rad/s"),
         (lambda: Harmonic(1.0, [1.0, 2.0], [0.1, 0.2, 0.3]), r"harmonic phase has shape \(3,\)"),
         (lambda: Parametric(2.0, [[1.0, 2.0]]), r"square"),
         (lambda: first_approximation(ModalSystem([1.0, 2.0]), [0.0], [Harmonic(0.5, [1.0])]),
-         r"harmonics\[0\] has 1 modal amplitudes, the system has n = 2"),
-        (lambda: primary_resonance(ModalSystem([1.0]), 1, Harmonic(1.0, [1.0])), r"mode = 1 must be"),
+         r"harmonics\[0\] has 1 modal amplitudes, the system has n_modes = 2"),
+        (lambda: primary_resonance(ModalSystem([1.0]), 1, Harmonic(1.0, [1.0])), r"mode = 1 is not allowed: it must be an integer in 0..0"),
         (lambda: particular_amplitudes(ModalSystem([2.0]), [Harmonic(2.0, [1.0])]), r"equals omega_0 exactly"),
         (lambda: modulation_equations(ModalSystem([1.0]), [Harmonic(3.0, [1.0])], soft=[(0, 4)]), r"index 4"),
         (lambda: modulation_equations(ModalSystem([1.0]), detuning=-0.1), r"detuning = -0.1"),
+        (lambda: modulation_equations([1.0]), r"system is a list: it must be a fivebar.modal_equations.ModalSystem"),
+        (lambda: frequency_response(ModalSystem([1.0]), 0, 0.1, [0.0, -2.0]), r"sigmas\[1\] = -2 rad/s is not allowed"),
+        (lambda: first_approximation(ModalSystem([1.0]), [0.0], guess=[1, 2]), r"guess has shape \(2,\), expected \(1,\)"),
     ],
 )
 def test_bad_input_names_the_value(make, match):
     with pytest.raises(MultiscaleError, match=match):
         make()
-    assert issubclass(MultiscaleError, ValueError)
+    assert issubclass(MultiscaleError, ValueError) and issubclass(MultiscaleError, FivebarError)

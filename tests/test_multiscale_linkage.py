@@ -1,4 +1,4 @@
-"""Tests of the model-facing multiple scales (fivebar.multiscale: modal_model, multiple_scales, ...)."""
+"""Tests of the model-facing multiple scales (fivebar.linkage_multiscale: modal_model, multiple_scales, ...)."""
 
 import numpy as np
 import pytest
@@ -6,9 +6,8 @@ import pytest
 import fivebar
 from fivebar.dynamics import LinkageDynamics
 from fivebar.excitation import modal_basis
-from fivebar.multiscale import (
+from fivebar.linkage_multiscale import (
     MultipleScalesResponse,
-    MultiscaleError,
     compare_starts,
     initial_state,
     modal_model,
@@ -16,6 +15,7 @@ from fivebar.multiscale import (
     multiple_scales,
     multiple_scales_newmark,
 )
+from fivebar.modal_equations import MultiscaleError
 from fivebar.newmark import GeneralizedAlpha
 from fivebar.steady import SteadyState, shooting
 
@@ -88,10 +88,18 @@ def test_modal_model_structure(dyn_lin):
     assert eff.system.w**2 == pytest.approx(B.mean_omega**2 + np.diag(B.kinematic_stiffness.mean(0)))
     ref = modal_model(dyn_lin, 2, nonlinear=False, basis="reference")
     assert not ref.parametric and np.abs(ref.system.alpha).max() == 0.0
-    with pytest.raises(MultiscaleError):
+    with pytest.raises(MultiscaleError, match="frequencies = 'median' is not allowed"):
         modal_model(dyn_lin, 2, frequencies="median")
-    with pytest.raises(MultiscaleError):
+    with pytest.raises(MultiscaleError, match="basis = 'modal' is not allowed: use 'instantaneous' or 'reference'"):
+        modal_model(dyn_lin, 2, basis="modal")
+    with pytest.raises(MultiscaleError, match="dyn.nonlinear = None is not allowed"):
         modal_model(dyn_lin, 2, nonlinear=True)  # the linear dynamics has no nonlinear force
+    with pytest.raises(MultiscaleError, match="params = None is not allowed without dynamics"):
+        multiple_scales()
+    with pytest.raises(MultiscaleError, match="nonlinear_steps = 0 is not allowed: give an integer in 1..100"):
+        modal_model(dyn_lin, 2, nonlinear=False, nonlinear_steps=0)
+    with pytest.raises(MultiscaleError, match="detuning = 'wide' is not allowed"):
+        multiple_scales(dynamics=dyn_lin, detuning="wide")
 
 
 def test_first_approximation_is_the_modal_particular_solution(dyn_lin):
@@ -136,7 +144,7 @@ def test_multiple_scales_newmark_reaches_the_steady_state(params, dyn_nl):
         assert st.peak_to_peak(link) == pytest.approx(ref.peak_to_peak(link), rel=1e-4)
     u0, v0 = initial_state(dyn_nl, "rest")
     assert not u0.any() and not v0.any()
-    with pytest.raises(MultiscaleError):
+    with pytest.raises(MultiscaleError, match="start = 'random' is not allowed"):
         initial_state(dyn_nl, "random")
 
 

@@ -12,7 +12,7 @@ or the unit in the name (``crank_speed_rpm``, ``midpoint(...)`` in mm as its doc
 # The facade is lazy (PEP 562): ``import fivebar`` loads no heavy module (scipy submodules,
 # matplotlib, pandas, control, numba); a name is imported from its module on first use.
 _FACADE = {
-    "linear_model": "control",
+    "linear_model": "control_model",
     "FivebarError": "errors",
     "PAPER_SCHEME": "setup", "Setup": "setup",
     "multibody_frequencies": "multibody", "multibody_steady_state": "multibody",

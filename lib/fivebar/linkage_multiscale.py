@@ -1,7 +1,7 @@
 r"""The linkage's modal equations (3.4) and its first approximation (3.6)-(3.7).
 
-The glue between the generic multiple-scales solver :mod:`fivebar.multiscale` (which knows
-nothing of the linkage) and the model: :func:`modal_model` builds the modal system, harmonics
+The glue between the generic multiple-scales solver :mod:`fivebar.multiscale` (with
+:mod:`fivebar.modal_equations`, which know nothing of the linkage) and the model: :func:`modal_model` builds the modal system, harmonics
 and parametric terms of :class:`fivebar.dynamics.LinkageDynamics` from
 :func:`fivebar.excitation.modal_basis`; :func:`multiple_scales` returns the first
 approximation as a :class:`fivebar.steady.SteadyState`; :func:`multiple_scales_newmark` is the
@@ -18,16 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .multiscale import (
-    DEFAULT_DETUNING,
-    Harmonic,
-    ModalSystem,
-    ModulationSteadyState,
-    MultiscaleError,
-    Parametric,
-    SlowFlow,
-    modulation_equations,
-)
+from .modal_equations import Harmonic, ModalSystem, MultiscaleError, Parametric
+from .multiscale import DEFAULT_DETUNING, ModulationSteadyState, SlowFlow, modulation_equations
 from .steady import SteadyState as _LinkageSteadyState
 
 __all__ = [
@@ -43,15 +35,6 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
-
-
-# =============================================================================================
-# The linkage: modal equations (3.4) of LinkageDynamics and the first approximation (3.6)-(3.7)
-# =============================================================================================
-#
-# The model-facing facade.  The generic core above knows nothing of the linkage; the functions
-# below build its ModalSystem, harmonics and parametric terms from fivebar.dynamics and
-# fivebar.excitation, and return the first approximation as a fivebar.steady.SteadyState.
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,7 +100,7 @@ class ModalModel:
         return float(self.load.frequency)
 
 
-def modal_nonlinear_coefficients(dyn, basis, steps: Sequence[int] | None = None) -> tuple[Array, Array]:
+def modal_nonlinear_coefficients(dyn, basis, step_indices: Sequence[int] | None = None) -> tuple[Array, Array]:
     r"""Quadratic and cubic modal coefficients :math:`\delta_{rst}, \gamma_{rstu}` at given steps.
 
     The internal nonlinear force :math:`\mathbf f_{nl}(\mathbf u, t)` of
@@ -146,19 +129,21 @@ def modal_nonlinear_coefficients(dyn, basis, steps: Sequence[int] | None = None)
     dyn : LinkageDynamics
         Must have been built with ``nonlinear=True``.
     basis : fivebar.excitation.ModalBasis
-    steps : sequence of int, optional
-        Steps to evaluate (default all S).
+    step_indices : sequence of int, optional
+        Indices (0..S - 1) of the steps to evaluate (default all S).
 
     Returns
     -------
-    delta : ndarray (len(steps), k, k, k)
-    gamma : ndarray (len(steps), k, k, k, k)
+    delta : ndarray (len(step_indices), k, k, k)
+    gamma : ndarray (len(step_indices), k, k, k, k)
         In the units of mass-normalised modal coordinates.
     """
     nl = dyn.nonlinear
     if nl is None:
-        raise MultiscaleError("the dynamics has no nonlinear force: build it with nonlinear=True")
-    steps = range(basis.t.size) if steps is None else list(steps)
+        raise MultiscaleError(
+            "dyn.nonlinear = None is not allowed: the dynamics has no nonlinear force; build it with nonlinear=True"
+        )
+    steps = range(basis.t.size) if step_indices is None else list(step_indices)
     k = basis.n_modes
     D = np.zeros((len(steps), k, k, k))
     G = np.zeros((len(steps), k, k, k, k))
@@ -245,6 +230,8 @@ def modal_model(
 
     if frequencies not in ("mean", "effective"):
         raise MultiscaleError(f"frequencies = {frequencies!r} is not allowed: use 'mean' or 'effective'")
+    if basis not in ("instantaneous", "reference"):
+        raise MultiscaleError(f"basis = {basis!r} is not allowed: use 'instantaneous' or 'reference'")
     B = modal_basis(dyn, n_modes, basis)
     m = dyn.params.fourier_terms if fourier_terms is None else fourier_terms
     load = fourier_series(B.project(dyn.step_data.F), dyn.period, m)
@@ -264,8 +251,9 @@ def modal_model(
         if np.any(w2 <= 0):
             r = int(np.flatnonzero(w2 <= 0)[0])
             raise MultiscaleError(
-                f"the effective frequency of mode {r + 1} is not real (omega^2 + H = {w2[r]:.4g} "
-                "rad^2/s^2): the crank speed is past the spin-softening limit of that mode"
+                f"frequencies = 'effective' is not allowed here: the effective frequency of mode {r + 1} is not "
+                f"real (omega^2 + H = {w2[r]:.4g} rad^2/s^2), the crank speed is past the spin-softening limit "
+                "of that mode; use frequencies='mean'"
             )
         wbar = np.sqrt(w2)
     harmonics = [Harmonic(0.0, load.mean)]
@@ -277,6 +265,10 @@ def modal_model(
             W, psi = stiff.amplitude[i].reshape(k, k), stiff.phase[i].reshape(k, k)
             par.append(Parametric(f, W * np.cos(psi), 0.0))
             par.append(Parametric(f, W * np.sin(psi), np.pi / 2))
+    if nonlinear_steps is not None and (
+        isinstance(nonlinear_steps, bool) or not isinstance(nonlinear_steps, (int, np.integer)) or not 1 <= nonlinear_steps <= S
+    ):
+        raise MultiscaleError(f"nonlinear_steps = {nonlinear_steps!r} is not allowed: give an integer in 1..{S} (S) or None")
     if nonlinear:
         steps = range(S) if nonlinear_steps is None else np.unique(np.linspace(0, S, int(nonlinear_steps), endpoint=False).astype(int))
         D, G = modal_nonlinear_coefficients(dyn, B, steps)
@@ -381,7 +373,10 @@ def multiple_scales(
 
     if dynamics is None:
         if params is None:
-            raise MultiscaleError("give params (or an existing dynamics)")
+            raise MultiscaleError(
+                "params = None is not allowed without dynamics: give a Params or a Setup, or an existing "
+                "dynamics=LinkageDynamics"
+            )
         dynamics = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
                             motors=motors, nonlinear=nonlinear).dynamics()
     dyn = dynamics
@@ -389,6 +384,10 @@ def multiple_scales(
         dyn, n_modes, basis=basis, frequencies=frequencies, kinematic=kinematic, fourier_terms=fourier_terms,
         nonlinear=nonlinear is not False and dyn.nonlinear is not None, parametric=parametric,
     )
+    if detuning is not None and (
+        isinstance(detuning, bool) or not isinstance(detuning, (int, float, np.floating)) or not (np.isfinite(detuning) and detuning >= 0)
+    ):
+        raise MultiscaleError(f"detuning = {detuning!r} is not allowed: give a finite number >= 0 (relative) or None")
     tol = default_detuning(model) if detuning is None else float(detuning)
     for _ in range(10):
         flow = modulation_equations(model.system, model.harmonics, model.parametric, detuning=tol)
@@ -480,7 +479,10 @@ def multiple_scales_newmark(
 
     if dynamics is None:
         if params is None:
-            raise MultiscaleError("give params (or an existing dynamics)")
+            raise MultiscaleError(
+                "params = None is not allowed without dynamics: give a Params or a Setup, or an existing "
+                "dynamics=LinkageDynamics"
+            )
         setup = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
                          motors=motors, nonlinear=nonlinear, scheme=scheme)
         dynamics, scheme = setup.dynamics(), setup.scheme

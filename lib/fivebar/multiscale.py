@@ -1,24 +1,9 @@
 r"""Multiple scales: the first approximation (3.6)-(3.7) of the modal equations (3.4).
 
-The modal equations (3.4), with the mode index ``r`` written out (the paper carries it through
-the selector :math:`\xi` of (3.5)), read
-
-.. math::
-
-    \ddot\eta_r + \omega_r^2\eta_r ={}& \sum_j F_{rj}\cos(\Omega_j t + \tau_{rj})
-    + \varepsilon\Big(-2\zeta_r\omega_r\dot\eta_r - \sum_s \alpha_{rs}\eta_s \\
-    &- \sum_{j,s} P^{(j)}_{rs}\cos(\Omega^P_j t + \varphi_j)\,\eta_s
-    + \sum_{s,t}\delta_{rst}\eta_s\eta_t
-    + \sum_{s,t,u}\gamma_{rstu}\eta_s\eta_t\eta_u\Big).
-
-The harmonics ``j`` are the Fourier terms :math:`k\nu_f` of (2.10) projected on the modes
-(:class:`Harmonic`; a frequency 0 is the constant load :math:`P_{0r}`).  The parametric
-stiffness terms :math:`P^{(j)}` (:class:`Parametric`) are not in (3.4); they carry the
-time-varying stiffness of the real linkage and the Mathieu test case.  :math:`\varepsilon` is a
-bookkeeping parameter: the library takes it absorbed into the coefficients (pass
-:math:`\varepsilon\alpha`, :math:`\varepsilon\delta`, ...), and the ordering is the usual one:
-damping, nonlinear and parametric terms small, non-resonant harmonics of any size ("hard"),
-harmonics near a natural frequency small ("soft").
+The modal equations (3.4) and their data types are in :mod:`fivebar.modal_equations`; the
+closed forms of one mode (frequency response, backbone, parametric transition curves) in
+:mod:`fivebar.response_curves`.  This module, like them, imports nothing of the linkage
+(:mod:`fivebar.linkage_multiscale` builds the linkage's modal equations).
 
 **First approximation, (3.7).**  With :math:`T_0=t,\ T_1=\varepsilon t` and
 :math:`\eta_r=\eta_{r0}(T_0,T_1)+\varepsilon\eta_{r1}+\dots`, the order :math:`\varepsilon^0`
@@ -76,57 +61,38 @@ its fixed points (Newton on :math:`(\mathrm{Re}\,\mathbf B, \mathrm{Im}\,\mathbf
 periodic responses, with :math:`a_r=|B_r|`, :math:`\theta_r = \nu_r t + \arg B_r` in (3.7),
 and the eigenvalues of the Jacobian decide their stability.  The *physical* amplitude of the
 free part is :math:`2a_r` (``ModulationSteadyState.amplitude``).
-
-For one mode with :math:`S_r = \kappa B + 3\Gamma|B|^2B + f` (primary resonance,
-:math:`\nu_r=\sigma=\Omega-\omega_r`) the fixed points satisfy, with :math:`X=(2a_r)^2`,
-
-.. math::
-
-    X\big[(2\zeta\omega^2-\kappa_I-\tfrac34\Gamma_I X)^2
-    + (2\omega\sigma+\kappa_R+\tfrac34\Gamma_R X)^2\big] = 4|f|^2,
-
-a cubic in :math:`X` (companion roots give every branch); for the Duffing equation
-:math:`\ddot u+\omega^2u+2\mu\dot u+\alpha u^3=k\cos\Omega t` (:math:`\Gamma=-\alpha`,
-:math:`f=k/2`) it is Nayfeh & Mook's (4.1.20),
-:math:`\big[\mu^2+(\sigma-\tfrac{3\alpha a^2}{8\omega})^2\big]a^2=\tfrac{k^2}{4\omega^2}`.
-For the principal parametric resonance :math:`\Omega\approx2\omega_r` (term :math:`c\bar B`)
-the trivial state loses stability between
-:math:`\sigma = -\kappa_R/\omega \pm 2\sqrt{|c|^2/(4\omega^2)-(\zeta\omega-\kappa_I/(2\omega))^2}`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import FivebarError
-from .newmark import NewtonConvergenceError
+from .modal_equations import (
+    Harmonic,
+    ModalSystem,
+    MultiscaleError,
+    Parametric,
+    _check_inputs,
+    _check_mode,
+    _check_sign,
+    _real,
+)
+from .newton import newton
 
 __all__ = [
     "DEFAULT_DETUNING",
-    "FrequencyResponse",
-    "Harmonic",
-    "ModalSystem",
     "ModeCoefficients",
-    "MultiscaleError",
-    "Parametric",
+    "ModulationSteadyState",
     "SecularTerm",
     "SlowFlow",
-    "ModulationSteadyState",
-    "backbone",
     "first_approximation",
-    "frequency_response",
     "modulation_equations",
-    "newton",
-    "parametric_response",
-    "parametric_transition_curves",
     "particular_amplitudes",
-    "primary_amplitudes",
-    "primary_resonance",
 ]
 
 Array = NDArray[np.float64]
@@ -135,305 +101,6 @@ CArray = NDArray[np.complex128]
 #: Default detuning tolerance, relative to each natural frequency: a frequency combination
 #: within ``DEFAULT_DETUNING * omega_r`` of ``omega_r`` counts as resonant (secular).
 DEFAULT_DETUNING = 0.05
-
-
-# --- errors -----------------------------------------------------------------------------------
-class MultiscaleError(FivebarError, ValueError):
-    """Bad input to the multiple-scales functions (the message names the value)."""
-
-
-#: Former name of :class:`fivebar.newmark.NewtonConvergenceError` (one error for every Newton
-#: iteration of the library); kept for old code, not exported.
-NewtonError = NewtonConvergenceError
-
-
-# --- input ------------------------------------------------------------------------------------
-def _newton_error(message: str, residual: float, iterations: int, t: float | None = None) -> NewtonConvergenceError:
-    return NewtonConvergenceError(message, t, residual, iterations)
-
-
-def _real(name: str, x: ArrayLike, shape: tuple[int, ...] | None = None) -> Array:
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise MultiscaleError(f"{name} = {x!r} is not a real number or array") from exc
-    if shape is not None and a.shape != shape:
-        raise MultiscaleError(f"{name} has shape {a.shape}, expected {shape}")
-    bad = ~np.isfinite(a)
-    if bad.any():
-        i = tuple(int(k) for k in np.argwhere(bad)[0])
-        raise MultiscaleError(f"{name}{list(i) if i else ''} = {a[i] if i else a} is not finite")
-    a.setflags(write=False)
-    return a
-
-
-def _check_sign(name: str, a: Array, strict: bool, unit: str) -> None:
-    bad = a <= 0 if strict else a < 0
-    if bad.any():
-        i = tuple(int(k) for k in np.argwhere(bad)[0])
-        where = list(i) if i else ""
-        raise MultiscaleError(
-            f"{name}{where} = {a[i] if i else float(a):g} {unit} is not allowed: "
-            f"it must be {'> 0' if strict else '>= 0'}"
-        )
-
-
-@dataclass(frozen=True, eq=False)
-class ModalSystem:
-    """Coefficients of the modal equations (3.4), with epsilon absorbed.
-
-    Parameters
-    ----------
-    w : array_like (n,)
-        Natural frequencies :math:`\\omega_r` (rad/s), > 0.
-    zeta : array_like (n,), optional
-        Damping ratios :math:`\\zeta_r` (-), >= 0; default 0.
-    alpha : array_like (n, n), optional
-        Linear coupling :math:`\\alpha_{rs}` (1/s^2), term :math:`-\\sum_s\\alpha_{rs}\\eta_s`.
-    delta : array_like (n, n, n), optional
-        Quadratic coefficients :math:`\\delta_{rst}`, term :math:`+\\sum\\delta_{rst}\\eta_s\\eta_t`.
-    gamma : array_like (n, n, n, n), optional
-        Cubic coefficients :math:`\\gamma_{rstu}`, term
-        :math:`+\\sum\\gamma_{rstu}\\eta_s\\eta_t\\eta_u` (the Duffing ``+alpha u^3`` on the
-        left is ``gamma = -alpha``).
-    """
-
-    w: ArrayLike
-    zeta: ArrayLike | None = None
-    alpha: ArrayLike | None = None
-    delta: ArrayLike | None = None
-    gamma: ArrayLike | None = None
-
-    def __post_init__(self) -> None:
-        w = _real("w", self.w)
-        if w.ndim != 1 or w.size == 0:
-            raise MultiscaleError(f"w must be a non-empty 1-D array of frequencies, got shape {w.shape}")
-        _check_sign("w", w, True, "rad/s")
-        n = w.size
-        set_ = object.__setattr__
-        set_(self, "w", w)
-        for name, ndim in (("zeta", 1), ("alpha", 2), ("delta", 3), ("gamma", 4)):
-            value = getattr(self, name)
-            a = _real(name, np.zeros((n,) * ndim) if value is None else value, (n,) * ndim)
-            set_(self, name, a)
-        _check_sign("zeta", self.zeta, False, "")
-
-    @property
-    def n(self) -> int:
-        """Number of modes."""
-        return int(self.w.size)
-
-    def acceleration(
-        self,
-        t: float,
-        eta: ArrayLike,
-        eta_dot: ArrayLike,
-        harmonics: Sequence[Harmonic] = (),
-        parametric: Sequence[Parametric] = (),
-    ) -> Array:
-        """The modal acceleration :math:`\\ddot\\eta` from (3.4) (epsilon absorbed).
-
-        Parameters
-        ----------
-        t : float
-            Time (s).
-        eta, eta_dot : array_like (n,)
-            Modal coordinates and velocities.
-        harmonics, parametric : sequences of Harmonic, Parametric
-
-        Returns
-        -------
-        ndarray (n,)
-        """
-        _check_inputs(self, harmonics, parametric)
-        e, v = np.asarray(eta, float), np.asarray(eta_dot, float)
-        acc = -self.w**2 * e - 2 * self.zeta * self.w * v - self.alpha @ e
-        acc += np.einsum("rst,s,t->r", self.delta, e, e)
-        acc += np.einsum("rstu,s,t,u->r", self.gamma, e, e, e)
-        for h in harmonics:
-            acc += h.amplitude * np.cos(h.frequency * t + h.phase)
-        for p in parametric:
-            acc -= np.cos(p.frequency * t + p.phase) * (p.stiffness @ e)
-        return acc
-
-
-@dataclass(frozen=True, eq=False)
-class Harmonic:
-    """One harmonic of the excitation, :math:`F_{r}\\cos(\\Omega t+\\tau_r)` in every mode.
-
-    Parameters
-    ----------
-    frequency : float
-        :math:`\\Omega = k\\nu_f` (rad/s), >= 0 (0 is a constant load).
-    amplitude : array_like (n,)
-        Modal force amplitudes :math:`F_{r}` (modal units / s^2).
-    phase : float or array_like (n,)
-        Phases :math:`\\tau_r` (rad); default 0.
-    """
-
-    frequency: float
-    amplitude: ArrayLike
-    phase: ArrayLike = 0.0
-
-    def __post_init__(self) -> None:
-        f = _real("harmonic frequency", self.frequency, ())
-        _check_sign("harmonic frequency", f, False, "rad/s")
-        F = _real("harmonic amplitude", np.atleast_1d(self.amplitude))
-        if F.ndim != 1:
-            raise MultiscaleError(f"harmonic amplitude must be 1-D (one entry per mode), got shape {F.shape}")
-        tau = _real("harmonic phase", np.broadcast_to(self.phase, F.shape) if np.ndim(self.phase) == 0 else self.phase, F.shape)
-        object.__setattr__(self, "frequency", float(f))
-        object.__setattr__(self, "amplitude", F)
-        object.__setattr__(self, "phase", tau)
-
-
-@dataclass(frozen=True, eq=False)
-class Parametric:
-    """A parametric stiffness term :math:`-P_{rs}\\cos(\\Omega t+\\varphi)\\,\\eta_s`.
-
-    Parameters
-    ----------
-    frequency : float
-        :math:`\\Omega` (rad/s), >= 0.
-    stiffness : array_like (n, n)
-        :math:`P_{rs}` (1/s^2).  The Mathieu equation
-        :math:`\\ddot u+\\omega^2(1+2h\\cos\\Omega t)u=0` is ``P = 2 h omega^2``.
-    phase : float
-        :math:`\\varphi` (rad).
-    """
-
-    frequency: float
-    stiffness: ArrayLike
-    phase: float = 0.0
-
-    def __post_init__(self) -> None:
-        f = _real("parametric frequency", self.frequency, ())
-        _check_sign("parametric frequency", f, False, "rad/s")
-        P = _real("parametric stiffness", np.atleast_2d(self.stiffness))
-        if P.ndim != 2 or P.shape[0] != P.shape[1]:
-            raise MultiscaleError(f"parametric stiffness must be square (n, n), got shape {P.shape}")
-        object.__setattr__(self, "frequency", float(f))
-        object.__setattr__(self, "stiffness", P)
-        object.__setattr__(self, "phase", float(_real("parametric phase", self.phase, ())))
-
-
-def _check_inputs(system: ModalSystem, harmonics: Sequence[Harmonic], parametric: Sequence[Parametric]) -> None:
-    if not isinstance(system, ModalSystem):
-        raise MultiscaleError(f"system must be a ModalSystem, got {type(system).__name__}")
-    for j, h in enumerate(harmonics):
-        if not isinstance(h, Harmonic):
-            raise MultiscaleError(f"harmonics[{j}] must be a Harmonic, got {type(h).__name__}")
-        if h.amplitude.shape != (system.n,):
-            raise MultiscaleError(
-                f"harmonics[{j}] has {h.amplitude.size} modal amplitudes, the system has n = {system.n} modes"
-            )
-    for j, p in enumerate(parametric):
-        if not isinstance(p, Parametric):
-            raise MultiscaleError(f"parametric[{j}] must be a Parametric, got {type(p).__name__}")
-        if p.stiffness.shape != (system.n, system.n):
-            raise MultiscaleError(
-                f"parametric[{j}] stiffness has shape {p.stiffness.shape}, expected ({system.n}, {system.n})"
-            )
-
-
-def _check_mode(system: ModalSystem, mode: int) -> int:
-    if not (isinstance(mode, (int, np.integer)) and 0 <= mode < system.n):
-        raise MultiscaleError(f"mode = {mode!r} must be an integer in 0..{system.n - 1} (0-based: the paper's r - 1)")
-    return int(mode)
-
-
-# --- Newton-Raphson ---------------------------------------------------------------------------
-def _fd_jacobian(fun: Callable[[Array], Array], x: Array, r: Array) -> Array:
-    J = np.empty((r.size, x.size))
-    for k in range(x.size):
-        h = 1e-7 * max(1.0, abs(x[k]))
-        xp = x.copy()
-        xp[k] += h
-        J[:, k] = (np.asarray(fun(xp), float) - r) / h
-    return J
-
-
-def newton(
-    fun: Callable[[Array], ArrayLike],
-    x0: ArrayLike,
-    jac: Callable[[Array], ArrayLike] | None = None,
-    *,
-    tol: float = 1e-10,
-    maxiter: int = 50,
-    t: float | None = None,
-) -> Array:
-    """Solve ``fun(x) = 0`` by Newton-Raphson with step halving.
-
-    Call forms::
-
-        x = newton(fun, x0)                 # finite-difference Jacobian
-        x = newton(fun, x0, jac, tol=1e-12)
-
-    Parameters
-    ----------
-    fun : callable ``x -> r``
-        Residual, same length as ``x``.
-    x0 : array_like (m,)
-        Initial guess.
-    jac : callable ``x -> (m, m)``, optional
-        Jacobian of ``fun``; default forward differences.
-    tol : float
-        Converged when ``max|fun(x)| <= tol`` (units of ``fun``).
-    maxiter : int
-        Maximum Newton iterations.
-    t : float, optional
-        Time (s) the solve belongs to; only quoted in the error message.
-
-    Returns
-    -------
-    ndarray (m,)
-
-    Raises
-    ------
-    NewtonConvergenceError
-        No convergence in ``maxiter`` iterations, a singular Jacobian, a non-finite residual or
-        a step that no halving makes decrease the residual; the message names the residual,
-        the iterations and (if given) the time.
-    """
-    at = "" if t is None else f" at t = {t:.9g} s"
-    x = np.array(x0, dtype=float).ravel()
-    r = np.asarray(fun(x), dtype=float).ravel()
-    norm = float(np.max(np.abs(r))) if r.size else 0.0
-    if not np.isfinite(norm):
-        raise _newton_error(f"Newton-Raphson{at}: residual is not finite at the initial guess", norm, 0, t)
-    for it in range(maxiter):
-        if norm <= tol:
-            return x
-        J = np.asarray(jac(x), float) if jac is not None else _fd_jacobian(fun, x, r)
-        try:
-            dx = np.linalg.solve(J, -r)
-        except np.linalg.LinAlgError:
-            dx = np.full_like(x, np.nan)
-        if not np.all(np.isfinite(dx)):
-            raise _newton_error(
-                f"Newton-Raphson{at}: singular Jacobian after {it} iterations (residual {norm:.3e})", norm, it, t
-            )
-        lam = 1.0
-        for _ in range(40):
-            xn = x + lam * dx
-            rn = np.asarray(fun(xn), dtype=float).ravel()
-            nn = float(np.max(np.abs(rn)))
-            if np.isfinite(nn) and (nn < norm or nn <= tol):
-                break
-            lam *= 0.5
-        else:
-            raise _newton_error(
-                f"Newton-Raphson{at}: no step along the Newton direction reduces the residual "
-                f"{norm:.3e} (tol {tol:.3e}) after {it + 1} iterations",
-                norm, it + 1, t,
-            )
-        x, r, norm = xn, rn, nn
-    if norm <= tol:
-        return x
-    raise _newton_error(
-        f"Newton-Raphson{at} did not converge: residual {norm:.3e} > tol {tol:.3e} after {maxiter} iterations",
-        norm, maxiter, t,
-    )
 
 
 # --- the first approximation ------------------------------------------------------------------
@@ -461,9 +128,9 @@ def particular_amplitudes(
     """
     _check_inputs(system, harmonics, ())
     soft = set(soft)
-    Lam = np.zeros((len(harmonics), system.n), complex)
+    Lam = np.zeros((len(harmonics), system.n_modes), complex)
     for j, h in enumerate(harmonics):
-        for r in range(system.n):
+        for r in range(system.n_modes):
             if (r, j) in soft or h.amplitude[r] == 0.0:
                 continue
             den = system.w[r] ** 2 - h.frequency**2
@@ -514,7 +181,7 @@ class SlowFlow:
         self.system, self.harmonics, self.parametric = system, tuple(harmonics), tuple(parametric)
         self.Lambda, self.soft, self.tol = Lambda, frozenset(soft), tol
         self._mode, self._coef, self._idx, self._d, self._order = mode, coef, idx, d, order
-        n = system.n
+        n = system.n_modes
         # rotating frame: d_k + sum(+-nu_s over the factors) - nu_r = 0 for every term
         M = np.zeros((mode.size, n))
         for k in range(mode.size):
@@ -535,7 +202,7 @@ class SlowFlow:
     @property
     def terms(self) -> list[SecularTerm]:
         """The secular terms, for tables (factors like ``A1 A1 conj(A1)``, modes 1-based)."""
-        n = self.system.n
+        n = self.system.n_modes
         names = [f"A{s + 1}" for s in range(n)] + [f"conj(A{s + 1})" for s in range(n)]
         out = []
         for r, c, ix, d, o in zip(self._mode, self._coef, self._idx, self._d, self._order):
@@ -551,7 +218,7 @@ class SlowFlow:
         soft harmonic), ``parametric`` multiplies :math:`\\bar A_r`.
         """
         r = _check_mode(self.system, mode)
-        n = self.system.n
+        n = self.system.n_modes
         one = 2 * n
         pat = {
             "kappa": (r, one, one),
@@ -578,7 +245,7 @@ class SlowFlow:
         """:math:`S_r(\\mathbf A, t)` in the original (non-rotating) frame, shape (n,)."""
         z = self._z(np.asarray(A, complex))
         val = self._coef * np.exp(1j * self._d * t) * np.prod(z[self._idx], axis=1)
-        return np.bincount(self._mode, val.real, self.system.n) + 1j * np.bincount(self._mode, val.imag, self.system.n)
+        return np.bincount(self._mode, val.real, self.system.n_modes) + 1j * np.bincount(self._mode, val.imag, self.system.n_modes)
 
     def modulation(self, t: float, A: ArrayLike) -> CArray:
         """:math:`\\dot A_r = -\\zeta_r\\omega_r A_r - \\frac{i}{2\\omega_r}S_r(\\mathbf A,t)`
@@ -588,8 +255,9 @@ class SlowFlow:
 
     def _frame(self) -> Array:
         if self.nu is None:
+            detuning = float(self.tol[0] / self.system.w[0])
             raise MultiscaleError(
-                "the secular terms hold resonances with incompatible (incommensurate) detunings: no "
+                f"detuning = {detuning:g}: the secular terms hold resonances with incompatible (incommensurate) detunings: no "
                 "rotating frame makes the slow flow autonomous, so it has no steady state; narrow the "
                 "detuning tolerance (below half the spacing of the harmonics over omega_r) or integrate "
                 "SlowFlow.modulation(t, A) instead"
@@ -615,13 +283,13 @@ class SlowFlow:
         B = self._split(x)
         z = np.abs(self._z(B))
         val = np.abs(self._coef) * np.prod(z[self._idx], axis=1)
-        S = np.bincount(self._mode, val, s.n)
+        S = np.bincount(self._mode, val, s.n_modes)
         return float(np.max(np.abs(s.zeta * s.w + 1j * nu) * np.abs(B) + 0.5 / s.w * S))
 
     def jacobian(self, x: ArrayLike) -> Array:
         """Jacobian of the flow (``__call__``) with respect to ``x = (Re B, Im B)``, (2n, 2n)."""
         s, nu = self.system, self._frame()
-        n = s.n
+        n = s.n_modes
         B = self._split(x)
         z = self._z(B)
         dS = np.zeros((n, 2 * n + 1), complex)
@@ -658,10 +326,10 @@ class SlowFlow:
         ------
         NewtonConvergenceError
         """
-        n = self.system.n
+        n = self.system.n_modes
         B0 = np.zeros(n, complex) if guess is None else np.asarray(guess, complex)
         if B0.shape != (n,):
-            raise MultiscaleError(f"guess has shape {B0.shape}, expected ({n},)")
+            raise MultiscaleError(f"guess has shape {B0.shape}, expected ({n},): one complex amplitude per mode")
         x0 = np.concatenate([B0.real, B0.imag])
         # the scale of the flow: from the guess, or from the pure-excitation terms
         tol = rtol * max(self._scale(x0), self._scale(np.zeros(2 * n)), 1e-300)
@@ -778,16 +446,18 @@ def modulation_equations(
     _check_inputs(system, harmonics, parametric)
     detuning = float(_real("detuning", detuning, ()))
     _check_sign("detuning", np.array(detuning), False, "")
-    n, w = system.n, system.w
+    n, w = system.n_modes, system.w
     tol = detuning * w
     soft = {(_check_mode(system, r), int(j)) for r, j in soft}
     principal = {(_check_mode(system, r), int(j)) for r, j in principal}
     for r, j in soft:
         if not 0 <= j < len(harmonics):
-            raise MultiscaleError(f"soft harmonic index {j} is out of range 0..{len(harmonics) - 1}")
+            raise MultiscaleError(f"soft = {sorted(soft)!r}: harmonic index {j} is not allowed, it must lie in 0..{len(harmonics) - 1}")
     for r, j in principal:
         if not 0 <= j < len(parametric):
-            raise MultiscaleError(f"principal parametric index {j} is out of range 0..{len(parametric) - 1}")
+            raise MultiscaleError(
+                f"principal = {sorted(principal)!r}: parametric index {j} is not allowed, it must lie in 0..{len(parametric) - 1}"
+            )
     for j, h in enumerate(harmonics):
         for r in range(n):
             if abs(h.frequency - w[r]) <= tol[r] and h.amplitude[r] != 0.0:
@@ -902,290 +572,7 @@ def modulation_equations(
     return SlowFlow(system, harmonics, parametric, Lam, soft, tol, mode, coef, idx, d, order)
 
 
-# --- closed-form amplitude equations ----------------------------------------------------------
-def primary_amplitudes(coeffs: ModeCoefficients, w: float, zeta: float, sigma: float) -> list[complex]:
-    """Steady frame amplitudes :math:`B` of one mode at primary resonance, by companion roots.
-
-    Solves :math:`X[(2\\zeta\\omega^2-\\kappa_I-\\tfrac34\\Gamma_IX)^2
-    +(2\\omega\\sigma+\\kappa_R+\\tfrac34\\Gamma_RX)^2] = 4|f|^2` for :math:`X=(2|B|)^2`
-    (``numpy.roots``: eigenvalues of the companion matrix) and returns, for each real positive
-    root, :math:`B = -if/[\\,2\\zeta\\omega^2-\\kappa_I-\\tfrac34\\Gamma_IX
-    + i(2\\omega\\sigma+\\kappa_R+\\tfrac34\\Gamma_RX)]`.
-
-    Parameters
-    ----------
-    coeffs : ModeCoefficients
-        From :meth:`SlowFlow.coefficients`.
-    w, zeta : float
-        :math:`\\omega_r` (rad/s) and :math:`\\zeta_r`.
-    sigma : float
-        Frame frequency :math:`\\nu_r = \\Omega-\\omega_r` (rad/s).
-
-    Returns
-    -------
-    list of complex, ascending amplitude
-    """
-    k, G, f = complex(coeffs.kappa), complex(coeffs.cubic), complex(coeffs.forcing)
-    p = 2 * zeta * w**2 - k.imag
-    q = 2 * w * sigma + k.real
-    cR, cI = 0.75 * G.real, 0.75 * G.imag
-    poly = [cR**2 + cI**2, 2 * (q * cR - p * cI), p**2 + q**2, -4 * abs(f) ** 2]
-    roots = np.roots(np.trim_zeros(np.array(poly), "f")) if any(poly[:3]) else np.array([])
-    out = []
-    big = max([abs(x) for x in roots] + [0.0])
-    for X in sorted(x.real for x in roots if abs(x.imag) <= 1e-7 * big and x.real > 0):
-        out.append(-1j * f / (p - cI * X + 1j * (q + cR * X)))
-    return out
-
-
-def _unique(states: list[ModulationSteadyState], mode: int) -> list[ModulationSteadyState]:
-    out: list[ModulationSteadyState] = []
-    for st in sorted(states, key=lambda s: s.amplitude[mode]):
-        if not out or np.max(np.abs(st.B - out[-1].B)) > 1e-7 * max(1e-300, np.max(np.abs(st.B))):
-            out.append(st)
-    return out
-
-
-def primary_resonance(
-    system: ModalSystem,
-    mode: int,
-    harmonic: Harmonic,
-    *,
-    harmonics: Sequence[Harmonic] = (),
-    parametric: Sequence[Parametric] = (),
-    detuning: float = DEFAULT_DETUNING,
-    quadratic_correction: bool = True,
-    rtol: float = 1e-11,
-) -> list[ModulationSteadyState]:
-    """Every steady branch of the primary resonance :math:`\\Omega\\approx\\omega_r`.
-
-    Call form::
-
-        branches = primary_resonance(system, 0, Harmonic(w0 + sigma, [F]))
-        [(b.amplitude[0], b.theta0[0], b.stable) for b in branches]
-
-    The companion roots of :func:`primary_amplitudes` give one guess per branch; Newton-Raphson
-    on the full slow flow (all modes, every secular term) refines it; the eigenvalues of the
-    flow's Jacobian give its stability.
-
-    Parameters
-    ----------
-    system : ModalSystem
-    mode : int
-        Resonant mode (0-based).
-    harmonic : Harmonic
-        The resonant (soft) harmonic, frequency :math:`\\Omega = \\omega_r + \\sigma`.
-    harmonics, parametric : sequences
-        Further (hard, non-resonant) excitation.
-    detuning, quadratic_correction : see :func:`modulation_equations`.
-    rtol : float
-        Newton tolerance, relative.
-
-    Returns
-    -------
-    list of ModulationSteadyState
-        Sorted by the amplitude of ``mode`` (one branch, or three in the bistable range).
-    """
-    mode = _check_mode(system, mode)
-    flow = modulation_equations(
-        system, [harmonic, *harmonics], parametric, detuning=detuning, soft=[(mode, 0)],
-        quadratic_correction=quadratic_correction,
-    )
-    nu = flow._frame()
-    guesses = primary_amplitudes(flow.coefficients(mode), system.w[mode], system.zeta[mode], nu[mode])
-    states = []
-    for Bm in guesses:
-        B0 = np.zeros(system.n, complex)
-        B0[mode] = Bm
-        states.append(flow.steady_state(B0, rtol=rtol))
-    return _unique(states, mode)
-
-
-class FrequencyResponse(NamedTuple):
-    """Frequency-response curve: ``sigma`` (N,) rad/s; ``amplitude`` and ``stable`` (N, 3),
-    the physical amplitudes :math:`2a_r` of the branches (ascending, NaN where absent)."""
-
-    sigma: Array
-    amplitude: Array
-    stable: NDArray[np.bool_]
-
-
-def frequency_response(
-    system: ModalSystem,
-    mode: int,
-    force: float | ArrayLike,
-    sigmas: ArrayLike,
-    *,
-    phase: float = 0.0,
-    **kwargs,
-) -> FrequencyResponse:
-    """The primary-resonance frequency-response curve of mode ``mode`` over detunings.
-
-    Parameters
-    ----------
-    system : ModalSystem
-    mode : int
-    force : float or array_like (n,)
-        Modal force amplitude of the resonant harmonic (a float loads ``mode`` only).
-    sigmas : array_like (N,)
-        Detunings :math:`\\sigma=\\Omega-\\omega_r` (rad/s).
-    phase : float
-        Phase of the harmonic (rad).
-    **kwargs
-        Passed to :func:`primary_resonance`.
-
-    Returns
-    -------
-    FrequencyResponse
-    """
-    mode = _check_mode(system, mode)
-    F = np.asarray(force, float)
-    if F.ndim == 0:
-        F = np.zeros(system.n)
-        F[mode] = float(force)
-    sig = _real("sigmas", np.atleast_1d(sigmas))
-    amp = np.full((sig.size, 3), np.nan)
-    stab = np.zeros((sig.size, 3), bool)
-    for i, s in enumerate(sig):
-        Om = system.w[mode] + s
-        if Om < 0:
-            raise MultiscaleError(f"sigma = {s:g} rad/s gives a negative excitation frequency {Om:g} rad/s")
-        br = primary_resonance(system, mode, Harmonic(Om, F, phase), **kwargs)
-        for k, b in enumerate(br[:3]):
-            amp[i, k], stab[i, k] = b.amplitude[mode], b.stable
-    return FrequencyResponse(sig, amp, stab)
-
-
-def backbone(
-    system: ModalSystem,
-    mode: int,
-    amplitudes: ArrayLike,
-    *,
-    harmonics: Sequence[Harmonic] = (),
-    **kwargs,
-) -> Array:
-    """Free-vibration frequency of mode ``mode`` against its amplitude (the backbone curve).
-
-    :math:`\\omega_{NL} = \\omega_r - (\\kappa_R + \\tfrac34\\Gamma_R\\,(2a_r)^2)/(2\\omega_r)`,
-    with :math:`\\kappa, \\Gamma` from the secular terms (including the shift that hard,
-    non-resonant ``harmonics`` cause, Nayfeh & Mook 4.1.4).  For the Duffing oscillator
-    :math:`\\omega_{NL} = \\omega + 3\\alpha a^2/(8\\omega)`.
-
-    Parameters
-    ----------
-    system : ModalSystem
-    mode : int
-    amplitudes : array_like
-        Physical amplitudes :math:`2a_r`.
-    harmonics : sequence of Harmonic
-        Hard excitation acting meanwhile.
-    **kwargs
-        Passed to :func:`modulation_equations`.
-
-    Returns
-    -------
-    ndarray
-        Frequencies (rad/s), shape of ``amplitudes``.
-    """
-    mode = _check_mode(system, mode)
-    flow = modulation_equations(system, harmonics, **kwargs)
-    c = flow.coefficients(mode)
-    a = _real("amplitudes", amplitudes)
-    w = system.w[mode]
-    return w - (c.kappa.real + 0.75 * c.cubic.real * a**2) / (2 * w)
-
-
-def parametric_transition_curves(
-    system: ModalSystem,
-    mode: int,
-    parametric: Parametric,
-    *,
-    harmonics: Sequence[Harmonic] = (),
-    **kwargs,
-) -> tuple[float, float]:
-    """Detunings bounding the principal parametric instability :math:`\\Omega\\approx2\\omega_r`.
-
-    The trivial state is unstable for :math:`\\sigma_- < \\Omega-2\\omega_r < \\sigma_+` with
-    :math:`\\sigma_\\pm = -\\kappa_R/\\omega \\pm
-    2\\sqrt{|c|^2/(4\\omega^2) - (\\zeta\\omega-\\kappa_I/(2\\omega))^2}`; for the damped
-    Mathieu equation :math:`\\ddot u + 2\\zeta\\omega\\dot u + \\omega^2(1+2h\\cos\\Omega t)u=0`,
-    :math:`\\sigma_\\pm=\\pm\\omega\\sqrt{h^2-4\\zeta^2}`.
-
-    Parameters
-    ----------
-    system : ModalSystem
-    mode : int
-    parametric : Parametric
-        Its frequency is irrelevant here (only its stiffness and phase are used).
-    harmonics : sequence of Harmonic
-        Hard excitation (shifts :math:`\\kappa`).
-    **kwargs
-        Passed to :func:`modulation_equations`.
-
-    Returns
-    -------
-    (sigma_minus, sigma_plus) : floats (rad/s), NaN if damping suppresses the instability.
-    """
-    mode = _check_mode(system, mode)
-    w, z = system.w[mode], system.zeta[mode]
-    p = Parametric(2 * w, parametric.stiffness, parametric.phase)
-    flow = modulation_equations(system, harmonics, [p], principal=[(mode, 0)], **kwargs)
-    c = flow.coefficients(mode)
-    disc = abs(c.parametric) ** 2 / (4 * w**2) - (z * w - c.kappa.imag / (2 * w)) ** 2
-    if disc < 0:
-        return (np.nan, np.nan)
-    return (-c.kappa.real / w - 2 * np.sqrt(disc), -c.kappa.real / w + 2 * np.sqrt(disc))
-
-
-def parametric_response(
-    system: ModalSystem,
-    mode: int,
-    parametric: Parametric,
-    *,
-    harmonics: Sequence[Harmonic] = (),
-    rtol: float = 1e-11,
-    **kwargs,
-) -> list[ModulationSteadyState]:
-    """Nontrivial steady states of the principal parametric resonance :math:`\\Omega\\approx2\\omega_r`.
-
-    The response is at :math:`\\Omega/2`.  With :math:`\\sigma = \\Omega-2\\omega_r` and
-    :math:`X=(2|B|)^2` the states solve
-    :math:`(\\omega\\sigma+\\kappa_R+\\tfrac34\\Gamma_RX)^2
-    +(2\\zeta\\omega^2-\\kappa_I-\\tfrac34\\Gamma_IX)^2 = |c|^2` (companion roots), refined by
-    Newton-Raphson on the slow flow.  For the Mathieu-Duffing oscillator
-    :math:`\\ddot u+2\\zeta\\omega\\dot u+\\omega^2(1+2h\\cos\\Omega t)u+\\alpha u^3=0`:
-    :math:`a^2 = \\tfrac{4\\omega}{3\\alpha}(\\sigma\\pm\\omega\\sqrt{h^2-4\\zeta^2})`.
-
-    Returns
-    -------
-    list of ModulationSteadyState, ascending amplitude (empty if none).
-    """
-    mode = _check_mode(system, mode)
-    w, z = system.w[mode], system.zeta[mode]
-    flow = modulation_equations(system, harmonics, [parametric], principal=[(mode, 0)], **kwargs)
-    nu = flow._frame()
-    c = flow.coefficients(mode)
-    sigma = 2 * nu[mode]
-    q = w * sigma + c.kappa.real
-    p = 2 * z * w**2 - c.kappa.imag
-    cR, cI = 0.75 * c.cubic.real, 0.75 * c.cubic.imag
-    poly = [cR**2 + cI**2, 2 * (q * cR - p * cI), q**2 + p**2 - abs(c.parametric) ** 2]
-    if not any(poly[:2]) or c.parametric == 0:
-        return []
-    roots = np.roots(np.trim_zeros(np.array(poly), "f"))
-    states = []
-    for X in roots:
-        if abs(X.imag) > 1e-9 * abs(X) or X.real <= 0:
-            continue
-        X = X.real
-        lhs = -q - cR * X + 1j * (p - cI * X)
-        beta = -0.5 * np.angle(lhs / c.parametric)
-        B0 = np.zeros(system.n, complex)
-        B0[mode] = 0.5 * np.sqrt(X) * np.exp(1j * beta)
-        states.append(flow.steady_state(B0, rtol=rtol))
-    return _unique(states, mode)
-
-
+# --- the steady first approximation -----------------------------------------------------------
 def first_approximation(
     system: ModalSystem,
     t: ArrayLike,
@@ -1222,15 +609,3 @@ def first_approximation(
     return st.eta(t), st.eta_dot(t)
 
 
-# The linkage's modal model and the paper's multiple-scales-Newmark method live in
-# fivebar.linkage_multiscale (this module imports nothing of the linkage); their old import
-# path ``from fivebar.multiscale import multiple_scales`` still works, loaded on first use.
-_LINKAGE_NAMES = frozenset(('ModalModel', 'MultipleScalesResponse', 'default_detuning', 'modal_model', 'modal_nonlinear_coefficients', 'multiple_scales', 'multiple_scales_newmark', 'initial_state', 'compare_starts'))
-
-
-def __getattr__(name: str):
-    if name in _LINKAGE_NAMES:
-        from . import linkage_multiscale
-
-        return getattr(linkage_multiscale, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
