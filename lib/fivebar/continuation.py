@@ -20,10 +20,14 @@ branch is followed around folds.  Lengths are measured in scaled variables
 matrix :math:`\boldsymbol\Phi` comes from the period map (the integrator's tangent) and
 :math:`\mathbf G_p` from one forward difference in ``p``.  The corrector is a chord
 iteration with the Jacobian of the last converged point; the Jacobian is refreshed at the
-present iterate if the chord iteration stalls.  Step-size control: a step whose corrector needs
-more than ``max_newton`` iterations (or fails) is halved (down to ``ds_min``); after a
-converged step the next is scaled by ``n_opt / iterations`` (``n_opt = max_newton // 2 + 1``,
-the factor kept within 0.5 and 1.5, the step within ``ds_max``).
+present iterate (twice at most) when an iteration reduces the residual by less than 5.  Step-size control: a step whose corrector needs
+more than ``max_newton`` iterations (or fails), or whose corrector ends farther than half
+the step from the predictor, is halved (down to ``ds_min``); after a converged step the next
+is scaled by :math:`\sqrt{0.1\,\Delta s/\delta}`, :math:`\delta` the distance of the
+corrected point from the predictor (about :math:`\kappa\Delta s^2/2` on a curve of curvature
+:math:`\kappa`: the tangent then turns by about 0.2 rad per step), the factor kept within
+0.5 and 2 (at most 1 after more than ``max_newton // 2 + 1`` iterations), the step within
+``ds_max``.
 
 **Bifurcations** (the codimension-one ones of a fixed point of a map; Kuznetsov,
 *Elements of Applied Bifurcation Theory*, 3rd ed., ch. 4-5; the test functions follow the
@@ -84,7 +88,11 @@ _KINDS = ("fold", "period doubling", "Neimark-Sacker")
 
 
 class ContinuationError(ComputationError):
-    """The continuation could not proceed (the message names the parameter and the step)."""
+    """The continuation could not proceed (the message names the parameter and the step).
+
+    Its attribute ``branch`` holds the :class:`Branch` up to the failure."""
+
+    branch: "Branch | None" = None
 
 
 @dataclass
@@ -386,7 +394,7 @@ def continuation(
     Raises
     ------
     ContinuationError
-        The step fell below ``ds_min``.
+        The step fell below ``ds_min`` (its ``branch`` attribute holds the points so far).
     """
     for name, v in (("ds", ds), ("ds_min", ds_min), ("ds_max", ds_max), ("p_scale", p_scale),
                     ("tol", tol), ("locate_tol", locate_tol), ("dp", dp)):
@@ -435,13 +443,19 @@ def continuation(
                 target = p_end / p_scale  # the last point: on p = p_end
             res = _correct(prob, yk, tk, h, Jc, tol, max_newton, target)
             if res is not None:
-                break
+                dist = float(np.linalg.norm(res[0] - yp))
+                if target is not None or dist <= 0.5 * h:
+                    break
+                res = None  # the corrector went far from the predictor: the curve turns too fast
             prob.stats["rejected"] += 1
             h *= 0.5
             if h < ds_min:
-                raise ContinuationError(
+                err = ContinuationError(
                     f"continuation: the step fell below ds_min = {ds_min:g} at p = {yk[-1] * p_scale:.8g} "
-                    f"after {len(pts)} points (the corrector did not converge in {max_newton} iterations)")
+                    f"after {len(pts)} points (the corrector did not converge in {max_newton} iterations, "
+                    "or a period of the map failed)")
+                err.branch = Branch(pts, bifs, periods, D, float(p_scale), prob.stats, str(err))
+                raise err
         y1, it = res
         J1, g1, Phi1 = prob.jac(y1)
         t1 = _tangent(J1, tk)
@@ -459,7 +473,10 @@ def continuation(
         if not p_bounds[0] <= q.p <= p_bounds[1]:
             stop = f"p = {q.p:.6g} left p_bounds = {p_bounds}"
             break
-        h = min(ds_max, h * min(1.5, max(0.5, (max_newton // 2 + 1) / it)))
+        factor = min(2.0, max(0.5, math.sqrt(0.1 * h / max(dist, 1e-300))))
+        if it > max_newton // 2 + 1:
+            factor = min(factor, 1.0)
+        h = min(ds_max, h * factor)
     return Branch(pts, bifs, periods, D, float(p_scale), prob.stats, stop)
 
 
@@ -474,7 +491,7 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
     row = np.zeros_like(tk)
     row[-1] = 1.0
     B = np.vstack([Jc, row if target is not None else tk])
-    refreshed = False
+    refreshed = 0
     prev_norm = math.inf
     for it in range(1, max_newton + 1):
         try:
@@ -486,13 +503,13 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
         c = (y[-1] - target) if target is not None else float(tk @ (y - yk) - h)
         r = np.concatenate([g, [c]])
         rn = float(np.linalg.norm(g))
-        if rn > 0.5 * prev_norm and not refreshed and it > 1:  # the chord stalls: fresh Jacobian
+        if rn > 0.2 * prev_norm and refreshed < 2 and it > 1:  # the chord is slow: fresh Jacobian
             try:
                 J, _, _ = prob.jac(y)
             except FivebarError:
                 return None
             B = np.vstack([J, row if target is not None else tk])
-            refreshed = True
+            refreshed += 1
         prev_norm = rn
         try:
             dy = np.linalg.solve(B, -r)
