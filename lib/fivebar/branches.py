@@ -41,7 +41,7 @@ from .periodic import PeriodicOrbit, floquet_multipliers, shoot
 from .setup import Setup, as_setup
 from .steady import SteadyState, _monodromy_period, _period, steady_state
 
-__all__ = ["BruteForceDiagram", "LinkageBranch", "SpeedReport", "brute_force_diagram", "describe_speed",
+__all__ = ["BruteForceDiagram", "LinkageBranch", "LinkagePeriodMap", "SpeedReport", "brute_force_diagram", "describe_speed",
            "follow", "follow_period_doubling", "linkage_period_map"]
 
 Array = NDArray[np.float64]
@@ -75,8 +75,16 @@ def _check_parameter(setup: Setup, parameter: str) -> float:
     return float(value)
 
 
-class _Map:
-    """The linkage's period map in the parameter (a :class:`fivebar.periodic.PeriodMap`)."""
+class LinkagePeriodMap:
+    """The linkage's period map in a parameter (a :class:`fivebar.periodic.PeriodMap`); made by
+    :func:`linkage_period_map`.
+
+    Calling it, ``f(x, p, jacobian)``, integrates one period of the set-up at parameter value
+    ``p`` from the state ``x = (u, du/dtheta)`` at crank angle 0.  Besides: ``f.dynamics(p)``
+    (the set-up and its :class:`~fivebar.dynamics.LinkageDynamics` at ``p``, the last four
+    kept), ``f.state(steady)`` (the state of a :class:`~fivebar.steady.SteadyState`),
+    ``f.steady(x, p)`` (one stored period from ``x``, a ``SteadyState``).
+    """
 
     periods = 1
 
@@ -124,7 +132,7 @@ class _Map:
         return SteadyState(dyn, res.t, res.u, res.v, "continuation", 1, scheme=s.scheme)
 
 
-def linkage_period_map(setup: Setup | Params, parameter: str = _SPEED) -> _Map:
+def linkage_period_map(setup: Setup | Params, parameter: str = _SPEED) -> LinkagePeriodMap:
     """The linkage's period map in ``parameter`` (a :class:`fivebar.periodic.PeriodMap`).
 
     ``f = linkage_period_map(fivebar.Setup(params, motors=False))``;
@@ -141,7 +149,7 @@ def linkage_period_map(setup: Setup | Params, parameter: str = _SPEED) -> _Map:
     """
     s = as_setup(setup)
     _check_parameter(s, parameter)
-    return _Map(s, parameter)
+    return LinkagePeriodMap(s, parameter)
 
 
 @dataclass
@@ -187,7 +195,7 @@ class LinkageBranch:
     def steady(self, i: int) -> SteadyState:
         """Point ``i`` as a :class:`~fivebar.steady.SteadyState` (one period integrated)."""
         q = self.branch.points[i]
-        base = self.period_map if isinstance(self.period_map, _Map) else self.period_map.base
+        base = self.period_map if isinstance(self.period_map, LinkagePeriodMap) else self.period_map.base
         return base.steady(q.x, q.p)
 
     def peak_to_peak(self, link: str = "L2", direction: str = "transverse") -> Array:
@@ -216,13 +224,13 @@ class LinkageBranch:
         return [b.describe(u) for b in self.bifurcations]
 
 
-def _scan_scale(f: _Map, p0: float, p_end: float, count: int = 12) -> Array:
+def _scan_scale(f: LinkagePeriodMap, p0: float, p_end: float, count: int = 12) -> Array:
     """Scale of the state from the energy norm of :mod:`fivebar.steady`: the state enters the
     arclength as ``sqrt(K_ii) u_i / E`` and ``Omega sqrt(M_ii) (du/dtheta)_i / E`` (``K, M`` at
     crank angle 0), with ``E`` the largest energy norm ``sqrt(u K u + v M v)`` of the linear
     model's orbits at ``count`` values across the range and ``Omega`` the speed where it
     occurs: a unit of arclength is the size of the largest orbit of the range."""
-    lin = _Map(f.setup.replace(nonlinear=False), f.parameter)
+    lin = LinkagePeriodMap(f.setup.replace(nonlinear=False), f.parameter)
     best = None
     for p in np.linspace(p0, p_end, count):
         s, dyn = lin.dynamics(p)
@@ -323,7 +331,7 @@ class _Doubled:
 
     periods = 2
 
-    def __init__(self, base: _Map) -> None:
+    def __init__(self, base: LinkagePeriodMap) -> None:
         self.base = base
         self._f = iterated_map(base, 2)
 

@@ -166,7 +166,7 @@ class Bifurcation:
 
     @property
     def critical(self) -> complex:
-        """The multiplier that crosses: nearest +1 (fold), -1 (period doubling) or, for
+        """The crossing multiplier: nearest +1 (fold), -1 (period doubling) or, for
         Neimark-Sacker, the non-real one nearest the unit circle (positive imaginary part)."""
         mu = self.multipliers
         if self.kind == "fold":
