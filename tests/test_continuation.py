@@ -188,3 +188,19 @@ def test_bad_input():
 def _fake_fold():
     from fivebar.continuation import Bifurcation
     return Bifurcation("fold", 1.0, np.zeros(2), np.zeros(2, complex), 0, (1.0, 1.0), 0.0)
+
+
+def test_a_failing_map_stops_the_continuation_with_the_branch_so_far():
+    def family(c):
+        return PeriodicProblem(System(np.eye(1), [[c]], np.eye(1), force=lambda t: [math.cos(0.7 * t)]),
+                               2 * math.pi / 0.7, 50)
+    f = newmark_map(family)
+
+    def failing(x, p, jacobian):
+        if p > 0.3:
+            raise ContinuationError("this map stops at 0.3")
+        return f(x, p, jacobian)
+    with pytest.raises(ContinuationError, match="ds_min") as info:
+        continuation(failing, np.zeros(2), 0.1, 0.5, ds=0.05, ds_max=0.1, ds_min=1e-4)
+    br = info.value.branch
+    assert len(br.points) >= 3 and 0.29 < br.p[-1] <= 0.3 and "ds_min" in br.stop

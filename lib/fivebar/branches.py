@@ -342,9 +342,16 @@ class _Doubled:
 def follow_period_doubling(branch: LinkageBranch, index: int, p_end: float, *, h: float = 0.05,
                            points: int = 100, **kwargs) -> LinkageBranch:
     """Switch at ``branch.bifurcations[index]`` (a period doubling) onto the period-2 branch
-    and follow it towards ``p_end`` (:func:`fivebar.continuation.switch_period_doubling`)."""
+    and follow it towards ``p_end`` (:func:`fivebar.continuation.switch_period_doubling`).
+
+    ``h`` is the first period-2 point's distance from the bifurcation along the critical
+    eigenvector, relative to the size of the orbit there (scaled norm).
+    """
     b = branch.bifurcations[index]
+    if b.kind != "period doubling":
+        raise InputError(f"branch.bifurcations[{index}] is a {b.kind}, not a period doubling")
     f = branch.period_map
+    h = float(h) * float(np.linalg.norm(b.x / branch.branch.scale))
     br = switch_period_doubling(f, b, float(p_end), h=h, scale=branch.branch.scale,
                                 p_scale=branch.branch.p_scale, max_points=int(points),
                                 ds=kwargs.pop("ds", 0.5 / points), ds_max=kwargs.pop("ds_max", 2.0 / points), **kwargs)

@@ -20,7 +20,10 @@ branch is followed around folds.  Lengths are measured in scaled variables
 matrix :math:`\boldsymbol\Phi` comes from the period map (the integrator's tangent) and
 :math:`\mathbf G_p` from one forward difference in ``p``.  The corrector is a chord
 iteration with the Jacobian of the last converged point; the Jacobian is refreshed at the
-present iterate (twice at most) when an iteration reduces the residual by less than 5.  Step-size control: a step whose corrector needs
+present iterate when an iteration reduces the residual by less than 5 (twice at most) or when
+its update, halved three times, still fails to integrate a period or multiplies the residual
+by more than 10 (Newton's residual may grow for an iteration on its way; a tenfold growth is
+taken for divergence); a step that fails with the present Jacobian too is rejected.  Step-size control: a step whose corrector needs
 more than ``max_newton`` iterations (or fails), or whose corrector ends farther than half
 the step from the predictor, is halved (down to ``ds_min``); after a converged step the next
 is scaled by :math:`\sqrt{0.1\,\Delta s/\delta}`, :math:`\delta` the distance of the
@@ -482,9 +485,11 @@ def continuation(
 
 def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: float,
              max_newton: int, target: float | None):
-    """Chord-Newton corrector from the predictor; ``(y, iterations)`` or None.
+    """Damped chord-Newton corrector from the predictor; ``(y, iterations)`` or None.
 
-    ``target``: correct onto ``p = target`` instead of the arclength constraint."""
+    An update whose period fails to integrate, or that multiplies the residual by more than
+    10, is halved (three times at most).  ``target``: correct onto ``p = target`` instead of the
+    arclength constraint."""
     y = yk + h * tk
     if target is not None:
         y[-1] = target
@@ -493,33 +498,64 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
     B = np.vstack([Jc, row if target is not None else tk])
     refreshed = 0
     prev_norm = math.inf
-    for it in range(1, max_newton + 1):
+
+    def residual(y):
         try:
             g = prob.G(y)
         except FivebarError:
             return None
-        if not np.all(np.isfinite(g)):
-            return None
-        c = (y[-1] - target) if target is not None else float(tk @ (y - yk) - h)
-        r = np.concatenate([g, [c]])
-        rn = float(np.linalg.norm(g))
-        if rn > 0.2 * prev_norm and refreshed < 2 and it > 1:  # the chord is slow: fresh Jacobian
-            try:
-                J, _, _ = prob.jac(y)
-            except FivebarError:
-                return None
-            B = np.vstack([J, row if target is not None else tk])
-            refreshed += 1
-        prev_norm = rn
+        return g if np.all(np.isfinite(g)) else None
+
+    def constraint(y):
+        return (y[-1] - target) if target is not None else float(tk @ (y - yk) - h)
+
+    def fresh(y):
         try:
-            dy = np.linalg.solve(B, -r)
-        except np.linalg.LinAlgError:
+            J, _, _ = prob.jac(y)
+        except FivebarError:
             return None
-        y = y + dy
+        return np.vstack([J, row if target is not None else tk])
+
+    g = residual(y)
+    if g is None:
+        return None
+    for it in range(1, max_newton + 1):
+        r = np.concatenate([g, [constraint(y)]])
+        rn = float(np.linalg.norm(r))
+        current = False  # B is the Jacobian at this y
+        if rn > 0.2 * prev_norm and refreshed < 2:  # the chord is slow: fresh Jacobian
+            B = fresh(y)
+            if B is None:
+                return None
+            refreshed += 1
+            current = True
+        prev_norm = rn
+        floor = tol * max(1.0, float(np.linalg.norm(y[:-1])))
+        while True:
+            try:
+                dy = np.linalg.solve(B, -r)
+            except np.linalg.LinAlgError:
+                return None
+            lam, gt = 1.0, None
+            for _ in range(4):
+                gt = residual(y + lam * dy)
+                if gt is not None:
+                    rt = float(np.linalg.norm(np.r_[gt, constraint(y + lam * dy)]))
+                    if rt < 10.0 * rn or np.linalg.norm(gt) <= floor:
+                        break
+                gt = None
+                lam *= 0.5
+            if gt is not None:
+                break
+            if current:  # not even the fresh Jacobian's direction reduces the residual
+                return None
+            B = fresh(y)  # the chord's direction failed: take the Jacobian here
+            if B is None:
+                return None
+            current = True
+        y, g = y + lam * dy, gt
         prob.stats["newton"] += 1
-        if rn <= tol * max(1.0, float(np.linalg.norm(y[:-1]))) and np.linalg.norm(dy) <= 1e3 * tol * max(1.0, np.linalg.norm(y)):
-            return y, it
-        if np.linalg.norm(dy) <= tol * max(1.0, np.linalg.norm(y)):
+        if lam == 1.0 and (np.linalg.norm(g) <= floor or np.linalg.norm(dy) <= tol * max(1.0, np.linalg.norm(y))):
             return y, it
     return None
 
@@ -616,7 +652,8 @@ def switch_period_doubling(
         ``max_points``).
     h : float
         Distance from the bifurcation along the critical eigenvector (scaled) of the first
-        period-2 point.
+        period-2 point (the step of the integration failing there is reported as a
+        :class:`ContinuationError`).
     scale, p_scale, tol
         As in :func:`continuation` (``scale`` default: the branch's, ``bif`` does not carry it:
         the largest component of the orbit, or 1).
@@ -650,16 +687,19 @@ def switch_period_doubling(
         c = c - (c @ t1) * t1
         c /= np.linalg.norm(c)
     y = ys + h * c
-    J = prob.jac(y)[0]
     ok = False
-    for _ in range(max_newton):
-        g = prob.G(y)
-        r = np.concatenate([g, [c @ (y - ys) - h]])
-        if np.linalg.norm(g) <= tol * max(1.0, np.linalg.norm(y[:-1])):
-            ok = True
-            break
-        J = prob.jac(y)[0]
-        y = y + np.linalg.solve(np.vstack([J, c]), -r)
+    g = np.full(x.size, np.nan)
+    try:
+        for _ in range(max_newton):
+            g = prob.G(y)
+            r = np.concatenate([g, [c @ (y - ys) - h]])
+            if np.linalg.norm(g) <= tol * max(1.0, np.linalg.norm(y[:-1])):
+                ok = True
+                break
+            J = prob.jac(y)[0]
+            y = y + np.linalg.solve(np.vstack([J, c]), -r)
+    except (FivebarError, np.linalg.LinAlgError):
+        ok = False
     if not ok:
         raise ContinuationError(
             f"branch switching at the period doubling p = {bif.p:.8g}: no period-2 orbit found at "
