@@ -113,3 +113,15 @@ def test_bad_input_and_no_convergence():
     f = newmark_map(_oscillator(100))
     with pytest.raises(ShootingError, match="did not converge"):
         shoot(f, np.array([10.0, 3.0]), tol=1e-30, max_iter=1)
+
+
+def test_the_generic_modules_import_nothing_of_the_linkage():
+    import subprocess
+    import sys
+
+    code = ("import sys, fivebar.periodic, fivebar.continuation; "
+            "bad = [m for m in sys.modules if m.startswith('fivebar.') and m not in "
+            "('fivebar.periodic', 'fivebar.continuation', 'fivebar.newmark', 'fivebar.errors')]; "
+            "print(bad); assert not bad, bad")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout + out.stderr
