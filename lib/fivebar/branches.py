@@ -37,7 +37,7 @@ from .continuation import Branch, ContinuationError, continuation, iterated_map,
 from .errors import FivebarError, InputError
 from .newmark import NewtonConvergenceError
 from .params import Params
-from .periodic import PeriodicOrbit, floquet_multipliers, shoot
+from .periodic import PeriodicOrbit, shoot
 from .setup import Setup, as_setup
 from .steady import SteadyState, _monodromy_period, _period, steady_state
 

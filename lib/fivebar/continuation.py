@@ -73,7 +73,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import ComputationError, FivebarError, InputError
-from .periodic import PeriodMap, PeriodicOrbit, floquet_multipliers, monodromy, shoot
+from .periodic import PeriodMap, floquet_multipliers, monodromy, shoot
 
 __all__ = [
     "Bifurcation",
