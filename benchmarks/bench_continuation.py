@@ -1,0 +1,108 @@
+"""Continuation of the linkage's periodic steady state over crank speed (issue 18, point 5).
+
+The flexible orientation (``bending_depth = 0.002``: the 2 mm side in the plane of motion),
+motors off, the parameter file's S and scheme otherwise; ``fivebar.branches.follow`` from 10 to
+300 r/min with a budget of 200 points, for the linear and the nonlinear model.  Prints one
+JSON object (and writes it with ``--out``):
+
+  <model>.points, .p_reached     points computed and the last speed (r/min)
+  <model>.stop                   why it stopped ("p_end = 300 reached", or the failure)
+  <model>.steps                  arclength steps (scaled: the range 10-300 is 1) and the speed
+                                 steps (r/min): min, median, max
+  <model>.newton                 corrector iterations: total, mean per point, histogram
+  <model>.stats                  map applications (periods), monodromy matrices, rejected steps
+  <model>.time_s, .ms_per_point  wall time (the state scaling's linear scan included) and per point
+  <model>.bifurcations           kind, speed, bracket, critical multiplier, four largest multipliers
+  <model>.after                  at a speed just past the first period doubling (if any):
+                                 ``describe_speed``'s sentence
+  load                           os.getloadavg() at start and end (the machine is shared)
+
+Usage: python benchmarks/bench_continuation.py [--out benchmarks/results/continuation.json]
+       [--steps S] [--points 200] [--models linear,nonlinear]
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+import time  # noqa: E402
+
+
+def _c(z):
+    return [round(float(z.real), 6), round(float(z.imag), 6)]
+
+
+def run(model: str, steps: int | None, points: int) -> dict:
+    import numpy as np
+
+    import fivebar
+    from fivebar.branches import describe_speed, follow
+
+    p = fivebar.load_params().replace(bending_depth=0.002)
+    s = fivebar.Setup(p, crank_speed_rpm=10, motors=False, nonlinear=(model == "nonlinear"),
+                      steps_per_period=steps)
+    t = time.perf_counter()
+    br = follow(s, 300, points=points)
+    wall = time.perf_counter() - t
+    b = br.branch
+    dp = np.abs(np.diff(b.p))
+    out = {
+        "S": s.steps_per_period,
+        "scheme": fivebar.setup.scheme_name(s.scheme),
+        "points": len(b.points),
+        "p_reached": round(float(b.p[-1]), 4),
+        "stop": b.stop,
+        "steps": {"arclength": [float(np.min(b.steps)), float(np.median(b.steps)), float(np.max(b.steps))],
+                  "rpm": [float(dp.min()), float(np.median(dp)), float(dp.max())]},
+        "newton": {"total": int(b.newton.sum()), "mean": round(float(b.newton.mean()), 2),
+                   "histogram": np.bincount(b.newton).tolist()},
+        "stats": dict(b.stats),
+        "time_s": round(wall, 2),
+        "ms_per_point": round(1e3 * wall / len(b.points), 1),
+        "stable_fraction": round(float(np.mean(b.stable)), 3),
+        "largest_multiplier": round(float(br.spectral_radius.max()), 5),
+        "bifurcations": [
+            {"kind": x.kind, "rpm": round(x.p, 6), "bracket": [round(v, 6) for v in x.p_bracket],
+             "critical": _c(x.critical), "abs_critical": round(abs(x.critical), 6),
+             "multipliers": [_c(m) for m in x.multipliers[:4]]}
+            for x in br.bifurcations],
+    }
+    pd = [x for x in br.bifurcations if x.kind == "period doubling"]
+    if pd:
+        try:
+            rep = describe_speed(s, pd[0].p + 0.2, branch=br, periods=300)
+            out["after"] = {"rpm": round(pd[0].p + 0.2, 4), "kind": rep.kind, "text": rep.text}
+        except Exception as exc:  # noqa: BLE001 - report, do not fail the benchmark
+            out["after"] = {"rpm": round(pd[0].p + 0.2, 4), "error": f"{type(exc).__name__}: {exc}"}
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out")
+    ap.add_argument("--steps", type=int, default=None, help="S (default: the parameter file's)")
+    ap.add_argument("--points", type=int, default=200)
+    ap.add_argument("--models", default="linear,nonlinear")
+    a = ap.parse_args()
+    res = {"python": platform.python_version(), "load": {"start": list(os.getloadavg())}}
+    import fivebar  # noqa: F401  (the import and the numba cache load are not timed)
+    from fivebar import steady_state
+    steady_state(fivebar.Setup(fivebar.load_params(), motors=False))  # warm the compiled kernels
+    for model in a.models.split(","):
+        res[model] = run(model, a.steps, a.points)
+    res["load"]["end"] = list(os.getloadavg())
+    text = json.dumps(res, indent=1)
+    print(text)
+    if a.out:
+        with open(a.out, "w") as fh:
+            fh.write(text + "\n")
+
+
+if __name__ == "__main__":
+    main()

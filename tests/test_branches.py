@@ -1,0 +1,80 @@
+"""The linkage's periodic steady state followed in a parameter (fivebar.branches).
+
+Checked against the library's two other routes to the same orbit, which share with the
+continuation only the time integrator: ``steady_state`` (shooting from the quasi-static start,
+one speed at a time) and brute force (long marches, one Poincaré sample per period, the speed
+stepped up and down, no Newton on periodicity and no monodromy matrix).  The linear model of
+the flexible orientation (2 mm in plane), motors off, keeps these tests fast; the nonlinear
+model is being corrected elsewhere (issue 18, point 1).
+"""
+
+import numpy as np
+import pytest
+
+import fivebar
+from fivebar.branches import brute_force_diagram, describe_speed, follow, linkage_period_map
+from fivebar.errors import FivebarError
+from fivebar.steady import steady_state
+
+
+@pytest.fixture(scope="module")
+def setup():
+    p = fivebar.load_params().replace(bending_depth=0.002)
+    return fivebar.Setup(p, crank_speed_rpm=30, steps_per_period=200, motors=False, nonlinear=False)
+
+
+@pytest.fixture(scope="module")
+def branch(setup):
+    return follow(setup, 90, points=40)
+
+
+def test_branch_agrees_with_steady_state(setup, branch):
+    br = branch
+    assert br.branch.stop.startswith("p_end") and abs(br.p[-1] - 90) < 1e-9
+    assert np.all(np.diff(br.p) > 0)  # the linear model has no folds here
+    f = linkage_period_map(setup)
+    for i in (0, len(br.p) // 2, len(br.p) - 1):
+        st = steady_state(setup.replace(crank_speed_rpm=float(br.p[i])))
+        x = f.state(st)
+        assert np.abs(br.branch.points[i].x - x).max() <= 1e-6 * np.abs(x).max()
+        mu = np.sort(np.abs(br.branch.points[i].multipliers))[::-1][:4]
+        assert np.allclose(mu, np.sort(np.abs(st.floquet_multipliers))[::-1][:4], rtol=1e-6)
+        assert br.stable[i] == st.stable
+    # a point between the branch's points, shot from the branch, against steady_state there
+    o = br.orbit_at(61.5)
+    x = f.state(steady_state(setup.replace(crank_speed_rpm=61.5)))
+    assert np.abs(o.x - x).max() <= 1e-6 * np.abs(x).max()
+    # the deflection of a stored point against steady_state's
+    i = len(br.p) // 2
+    pp = br.steady(i).peak_to_peak("L2")
+    assert abs(pp - steady_state(setup.replace(crank_speed_rpm=float(br.p[i]))).peak_to_peak("L2")) < 1e-6 * pp
+
+
+def test_brute_force_agrees_with_the_continuation_where_stable(setup, branch):
+    speeds = [40.0, 60.0, 80.0]
+    bf = brute_force_diagram(setup, speeds, transient=60, samples=4)
+    assert list(bf.direction) == ["up"] * 3 + ["down"] * 3
+    assert np.all(bf.period() == 1) and not bf.diverged.any()
+    for p, x in zip(bf.p, bf.states):
+        o = branch.orbit_at(p)
+        assert o.stable
+        assert np.abs(x - o.x).max() <= 1e-6 * np.abs(o.x).max()
+
+
+def test_describe_speed_names_a_stable_orbit(setup):
+    rep = describe_speed(setup, 60)
+    assert rep.kind == "stable period-1" and "stable period-1 orbit" in rep.text and "60" in rep.text
+
+
+def test_another_parameter_and_bad_input(setup):
+    br = follow(setup.replace(crank_speed_rpm=60), 0.0025, parameter="bending_depth", p0=0.002, points=6,
+                ds_max=0.3, ds=0.3)
+    assert br.p[0] == 0.002 and abs(br.p[-1] - 0.0025) < 1e-12
+    st = steady_state(fivebar.Setup(setup.params.replace(bending_depth=0.0025), crank_speed_rpm=60,
+                                    steps_per_period=200, motors=False, nonlinear=False))
+    x = linkage_period_map(setup).state(st)
+    assert np.abs(br.branch.points[-1].x - x).max() <= 1e-6 * np.abs(x).max()
+    with pytest.raises(FivebarError, match="no_such"):
+        follow(setup, 1.0, parameter="no_such_entry")
+    with pytest.raises(FivebarError, match="p_end"):
+        follow(setup, 30.0)

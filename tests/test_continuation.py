@@ -1,0 +1,206 @@
+"""Continuation of periodic orbits (fivebar.continuation) against independent references.
+
+* Forced Duffing oscillator x'' + 2 zeta x' + x + alpha x^3 = F cos(w t), continued in w:
+  the two folds of its frequency response against a reference that shares nothing with the
+  library's integrator or continuation: scipy's DOP853 (rtol 1e-11) with the variational
+  equations, and scipy.optimize.root on the fold condition (periodicity and
+  det(Phi - I) = 0, three equations in x(0), x'(0), w).  The remaining difference is the
+  trapezoidal rule's period error, w dt^2 / 12 relative (checked).  For small forcing the
+  upper fold (the peak) lies on the first-order multiple-scales backbone
+  w = 1 + 3 alpha a^2 / 8 (fivebar.multiscale.backbone).
+* Parametrically excited damped Duffing x'' + 2 zeta x' + (a - 2 q cos 2t) x + alpha x^3 = 0,
+  continued in a on its trivial orbit: the period doublings are the boundaries of the damped
+  first instability tongue (reference: DOP853 monodromy of the linear equation and a root of
+  det(Phi + I)); the period-2 branch after switching against brute force (a long DOP853 march
+  sampled once per period, and the library's own map iterated).
+* A linear oscillator with damping c through zero: a Neimark-Sacker point at c = 0 exactly
+  (closed form multipliers exp(lambda T), |mu| = exp(-c T / 2)).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq, root
+
+from fivebar.continuation import ContinuationError, continuation, switch_period_doubling
+from fivebar.errors import FivebarError
+from fivebar.multiscale import ModalSystem, backbone
+from fivebar.newmark import System
+from fivebar.periodic import PeriodicProblem, iterate_map, newmark_map
+
+
+def _duffing(zeta, alpha, F, S):
+    def family(w):
+        sysm = System(np.eye(1), [[2 * zeta]], np.eye(1), force=lambda t: [F * math.cos(w * t)],
+                      nonlinear=lambda u: (alpha * u ** 3, np.array([[3 * alpha * u[0] ** 2]])))
+        return PeriodicProblem(sysm, 2 * math.pi / w, S)
+    return newmark_map(family)
+
+
+def _duffing_fold_reference(zeta, alpha, F, guess):
+    """(x0, v0, w) at a fold: DOP853 period map with its variational equations; root of
+    (x(T) - x0, det(Phi - I))."""
+    def flow(x0, w):
+        def rhs(t, y):
+            x, v = y[0], y[1]
+            J = np.array([[0.0, 1.0], [-1 - 3 * alpha * x * x, -2 * zeta]])
+            return np.r_[v, F * math.cos(w * t) - 2 * zeta * v - x - alpha * x ** 3,
+                         (J @ y[2:].reshape(2, 2)).ravel()]
+        s = solve_ivp(rhs, (0, 2 * math.pi / w), np.r_[x0, np.eye(2).ravel()], method="DOP853",
+                      rtol=1e-11, atol=1e-13)
+        return s.y[:2, -1], s.y[2:, -1].reshape(2, 2)
+
+    def eqs(z):
+        xT, P = flow(z[:2], z[2])
+        return np.r_[xT - z[:2], np.linalg.det(P - np.eye(2))]
+    sol = root(eqs, guess, tol=1e-13)
+    assert sol.success and np.abs(eqs(sol.x)).max() < 1e-10
+    return sol.x
+
+
+def test_duffing_folds_against_dop853_fold_condition():
+    zeta, alpha, F, S = 0.05, 1.0, 0.1, 100
+    br = continuation(_duffing(zeta, alpha, F, S), np.zeros(2), 1.0, 1.4, ds=0.05, ds_max=0.3)
+    folds = [b for b in br.bifurcations if b.kind == "fold"]
+    assert len(folds) == 2 and br.stop.startswith("p_end")
+    assert [b.kind for b in br.bifurcations] == ["fold", "fold"]
+    # the branch turns back: p is not monotone, and the middle (unstable) part lies between the folds
+    assert np.any(np.diff(br.p) < 0)
+    unstable = br.p[~br.stable]
+    assert unstable.size and folds[1].p - 1e-6 <= unstable.min() and unstable.max() <= folds[0].p + 1e-6
+    period_error = (2 * math.pi / S) ** 2 / 12  # relative frequency error of the trapezoidal rule
+    for b in folds:
+        assert abs(b.critical - 1) < 1e-4
+        ref = _duffing_fold_reference(zeta, alpha, F, np.r_[b.x, b.p])
+        rel = (b.p - ref[2]) / ref[2]
+        # measured: -8.4e-5 (S = 200) and -3.3e-4 (S = 100) at both folds: the period error
+        assert abs(rel + period_error) < 0.1 * period_error, (b.p, ref[2], rel)
+        assert abs(b.p * (1 + period_error) - ref[2]) < 2e-5
+        assert abs(b.p_bracket[1] - b.p_bracket[0]) < 1e-6
+
+
+def test_duffing_small_forcing_peak_on_the_multiple_scales_backbone():
+    zeta, alpha, F, S = 0.005, 0.5, 0.004, 200
+    br = continuation(_duffing(zeta, alpha, F, S), np.zeros(2), 0.99, 1.05, ds=0.05, ds_max=0.3,
+                      p_scale=0.01)
+    folds = sorted((b for b in br.bifurcations if b.kind == "fold"), key=lambda b: b.p)
+    assert len(folds) == 2
+    upper = folds[1]
+    a = math.hypot(upper.x[0], upper.x[1] / upper.p)  # first-harmonic amplitude at the fold
+    w_bb = float(backbone(ModalSystem(w=[1.0], gamma=np.full((1, 1, 1, 1), -alpha)), 0, [a])[0])
+    assert abs(w_bb - (1 + 3 * alpha * a * a / 8)) < 1e-12
+    shift = upper.p * (1 + (2 * math.pi / S) ** 2 / 12) - 1  # the discrete period error removed
+    # first-order multiple scales: error O(shift) relative (measured 1.8 %)
+    assert abs(shift / (w_bb - 1) - 1) < 0.03
+    # the forced amplitude at the peak is F / (2 zeta) to first order (measured 0.385 against 0.4)
+    assert abs(a / (F / (2 * zeta)) - 1) < 0.05
+
+
+def _parametric(zeta, q, alpha, S):
+    def family(a):
+        sysm = System(np.eye(1), [[2 * zeta]], lambda t: np.array([[a - 2 * q * math.cos(2 * t)]]),
+                      nonlinear=lambda u: (alpha * u ** 3, np.array([[3 * alpha * u[0] ** 2]])))
+        return PeriodicProblem(sysm, math.pi, S)
+    return newmark_map(family)
+
+
+def _damped_mathieu_pd(zeta, q, lo, hi):
+    def det_plus_i(a):
+        def rhs(t, y):
+            return (np.array([[0, 1], [-(a - 2 * q * math.cos(2 * t)), -2 * zeta]]) @ y.reshape(2, 2)).ravel()
+        s = solve_ivp(rhs, (0, math.pi), np.eye(2).ravel(), method="DOP853", rtol=1e-12, atol=1e-14)
+        return np.linalg.det(s.y[:, -1].reshape(2, 2) + np.eye(2))
+    return brentq(det_plus_i, lo, hi, xtol=1e-13)
+
+
+def test_period_doublings_of_the_parametric_oscillator_and_its_period_2_branch():
+    zeta, q, alpha = 0.05, 0.5, 1.0
+    ref = [_damped_mathieu_pd(zeta, q, 0.3, 1.0), _damped_mathieu_pd(zeta, q, 1.0, 1.8)]
+    errs = {}
+    for S in (100, 200):
+        f = _parametric(zeta, q, alpha, S)
+        br = continuation(f, np.zeros(2), 0.3, 1.8, ds=0.02, ds_max=0.05)
+        pds = [b for b in br.bifurcations if b.kind == "period doubling"]
+        assert [b.kind for b in br.bifurcations] == ["period doubling"] * 2
+        errs[S] = np.array([b.p for b in pds]) - ref
+        for b in pds:
+            assert abs(b.critical + 1) < 1e-6
+    # dt^2: measured 2.1e-4, 2.2e-4 at S = 100
+    assert np.all(np.abs(errs[200]) < 1e-4) and np.all(np.abs(errs[100] / errs[200] - 4) < 0.3), errs
+
+    f = _parametric(zeta, q, alpha, 100)  # the switch at S = 100
+    br = continuation(f, np.zeros(2), 1.3, 1.6, ds=0.02, ds_max=0.05)
+    upper = br.bifurcations[-1]
+    a_end = upper.p - 0.3
+    b2 = switch_period_doubling(f, upper, a_end, h=0.05, ds=0.05, ds_max=0.2)
+    assert b2.periods == 2 and abs(b2.p[-1] - a_end) < 1e-12
+    x2 = b2.x[-1]
+    other = f(x2, a_end, False)[0]
+    assert np.linalg.norm(other - x2) > 0.5  # a genuine period-2 orbit (the two iterates differ)
+    assert b2.stable[-1]
+    # brute force 1: the library's own map iterated from near rest converges onto the same orbit
+    xs = iterate_map(f, [0.1, 0.0], a_end, periods=400)
+    assert min(np.abs(xs[-1] - x2).max(), np.abs(xs[-1] - other).max()) < 1e-8
+    # brute force 2: DOP853 march, sampled once per period pi
+    def rhs(t, y):
+        return [y[1], -2 * zeta * y[1] - (a_end - 2 * q * math.cos(2 * t)) * y[0] - alpha * y[0] ** 3]
+    s = solve_ivp(rhs, (0, 400 * math.pi), [0.1, 0.0], method="DOP853", rtol=1e-11, atol=1e-13,
+                  t_eval=[398 * math.pi, 399 * math.pi, 400 * math.pi])
+    samples = s.y.T
+    assert np.abs(samples[0] - samples[2]).max() < 1e-8  # period 2 in the samples
+    d = min(np.abs(samples[2] - x2).max(), np.abs(samples[2] - other).max())
+    assert d < 1e-3  # the discretisation at S = 100 (measured 2.6e-4)
+
+
+def test_neimark_sacker_of_a_linear_oscillator_at_zero_damping():
+    w = 0.7
+
+    def family(c):
+        return PeriodicProblem(System(np.eye(1), [[c]], np.eye(1), force=lambda t: [math.cos(w * t)]),
+                               2 * math.pi / w, 200)
+    br = continuation(newmark_map(family), np.zeros(2), 0.1, -0.1, ds=0.05, ds_max=0.2)
+    ns = [b for b in br.bifurcations if b.kind == "Neimark-Sacker"]
+    assert [b.kind for b in br.bifurcations] == ["Neimark-Sacker"]
+    assert abs(ns[0].p) < 1e-7
+    T = 2 * math.pi / w
+    mu = ns[0].critical
+    assert abs(abs(mu) - 1) < 1e-7
+    # the free frequency 1: angle T; the trapezoidal rule turns by 2 atan(dt / 2) per step
+    assert abs(np.angle(mu) - np.angle(np.exp(1j * T))) < 2e-3
+    dt = T / 200
+    assert abs(np.angle(mu) - np.angle(np.exp(1j * 200 * 2 * math.atan(dt / 2)))) < 1e-9
+    assert br.stable[0] and not br.stable[-1]
+
+
+def test_bad_input():
+    f = _parametric(0.05, 0.5, 1.0, 50)
+    with pytest.raises(FivebarError, match="ds"):
+        continuation(f, np.zeros(2), 0.3, 1.0, ds=-1)
+    with pytest.raises(FivebarError, match="p_end"):
+        continuation(f, np.zeros(2), 0.3, 0.3)
+    with pytest.raises(FivebarError, match="period doubling"):
+        switch_period_doubling(f, _fake_fold(), 1.0)
+    assert issubclass(ContinuationError, FivebarError)
+
+
+def _fake_fold():
+    from fivebar.continuation import Bifurcation
+    return Bifurcation("fold", 1.0, np.zeros(2), np.zeros(2, complex), 0, (1.0, 1.0), 0.0)
+
+
+def test_a_failing_map_stops_the_continuation_with_the_branch_so_far():
+    def family(c):
+        return PeriodicProblem(System(np.eye(1), [[c]], np.eye(1), force=lambda t: [math.cos(0.7 * t)]),
+                               2 * math.pi / 0.7, 50)
+    f = newmark_map(family)
+
+    def failing(x, p, jacobian):
+        if p > 0.3:
+            raise ContinuationError("this map stops at 0.3")
+        return f(x, p, jacobian)
+    with pytest.raises(ContinuationError, match="ds_min") as info:
+        continuation(failing, np.zeros(2), 0.1, 0.5, ds=0.05, ds_max=0.1, ds_min=1e-4)
+    br = info.value.branch
+    assert len(br.points) >= 3 and 0.29 < br.p[-1] <= 0.3 and "ds_min" in br.stop
