@@ -39,14 +39,12 @@ force each other to re-read every page.
 from __future__ import annotations
 
 import argparse
-import functools
-import http.server
 import json
 import os
 import re
 import shutil
+import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -55,32 +53,8 @@ import yaml
 ROOT = Path(__file__).resolve().parents[2]
 BUILD = ROOT / "_build"
 CACHE = BUILD / ".jupyter_cache"  # shared with `make book`
-CHROMIUM = os.environ.get("FIVEBAR_CHROMIUM", "/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--disable-quic",
-]
 EDITIONS = ("instructor", "student")
 PDF_NAME = "fivebar.pdf"
-#: Print scale: the HTML's 16 px body text at 0.8 prints near 10 pt on A4.
-SCALE = float(os.environ.get("FIVEBAR_PDF_SCALE", "0.8"))
-#: A PDF outline (bookmarks) from the headings.  Chromium makes it only for a tagged
-#: (accessible) PDF, which is 2.4 times larger (14.7 MB against 6.1 MB for the book of
-#: 2026-11-30); FIVEBAR_PDF_OUTLINE=0 prints the small untagged PDF without bookmarks
-#: (tests/test_pdf.py then fails its outline test).
-OUTLINE = os.environ.get("FIVEBAR_PDF_OUTLINE", "1") == "1"
-#: The single page printed.  Sphinx's singlehtml writes the whole book into the toc's root
-#: document (``book/index.html``) but with links relative to the output folder (``_static/``,
-#: ``_images/``), so the page is copied there under this name before printing.
-PRINT_PAGE = "fivebar.html"
-
-
 def _sphinx_build(builder: str, outdir: Path, doctreedir: Path, toc: Path,
                   overrides: dict) -> None:
     """One strict jupyter-book build (as ``make book``: -W -n --keep-going)."""
@@ -213,198 +187,19 @@ def build_student(out: Path = BUILD / "student") -> Path:
     return html
 
 
-def numbered_toc(src: Path, dst: Path) -> Path:
-    """A copy of the table of contents with every part numbered (for the PDF).
-
-    The printed book numbers its chapters whether or not the HTML book does; the numbering
-    runs on across parts (``use_multitoc_numbering`` in ``_config.yml``).
-    """
-    toc = yaml.safe_load(src.read_text())
-    for part in toc.get("parts", []):
-        part.setdefault("numbered", True)
-    text = yaml.safe_dump(toc, sort_keys=False)
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    if not dst.is_file() or dst.read_text() != text:  # keep mtime: no needless re-read
-        dst.write_text(text)
-    return dst
-
-
 # --------------------------------------------------------------------------------------------
-# Printing
+# The PDF: Sphinx's LaTeX builder and XeLaTeX
 # --------------------------------------------------------------------------------------------
 
-#: What the printed page hides and how it breaks.  The theme's print styles already hide the
-#: sidebars and buttons and show its own title and table of contents (``#jb-print-docs-body``);
-#: Sphinx's singlehtml puts each page of the book in a ``div.toctree-wrapper > section``, and
-#: each starts on a new sheet.
-PRINT_CSS = """
-@page { size: A4; }
-html, body { background: white !important; }
-.bd-header, .bd-header-announcement, .bd-sidebar-primary, .bd-sidebar-secondary,
-.bd-header-article, .prev-next-area, .prev-next-footer, footer, .bd-footer,
-.bd-footer-content, .bd-footer-article, #pst-back-to-top, .theme-switch-button,
-.search-button, .copybtn, .skip-link, .headerlink, button.toggle-button,
-label.overlay { display: none !important; }
-.bd-container, .bd-container__inner, .bd-page-width, .bd-main, .bd-content,
-.bd-article-container, .bd-article { max-width: none !important; width: 100% !important;
-  margin: 0 !important; padding: 0 !important; display: block !important; }
-#jb-print-docs-body { break-after: page; }
-.fivebar-print-subtitle { font-size: 1.2em; margin: 0.5em 0 2em 0; color: #333; }
-.fivebar-print-contents { list-style: none; padding-left: 0; line-height: 1.6; }
-.toctree-wrapper > section { break-before: page; }
-h1, h2, h3, h4 { break-after: avoid; }
-figure, img, .cell_output img, mjx-container[display="true"] { break-inside: avoid; }
-img { max-width: 100% !important; }
-pre { white-space: pre-wrap !important; word-break: break-word; }
-.cell_output pre { font-size: 0.8em; }
-details > *, .toggle-hidden, .toggle-details__container { display: block !important; }
-"""
-
-#: Runs in the page before printing: unfold every dropdown (solutions, hidden code), put the
-#: version and edition under the title.  Returns the chapter titles as printed.
-PREPARE_JS = r"""
-(subtitle) => {
-  document.querySelectorAll('details').forEach(d => { d.open = true; });
-  document.querySelectorAll('.toggle-hidden').forEach(e => e.classList.remove('toggle-hidden'));
-  document.querySelectorAll('.dropdown').forEach(e => e.classList.remove('dropdown'));
-  const title = document.querySelector('#jb-print-docs-body h1');
-  if (title) {
-    const p = document.createElement('p');
-    p.className = 'fivebar-print-subtitle';
-    p.textContent = subtitle;
-    title.after(p);
-  }
-  const heads = Array.from(document.querySelectorAll('.toctree-wrapper > section > h2'));
-  const titles = heads.map(h => h.textContent.replace(/#\s*$/, '').trim());
-  // The contents page: the chapters as printed, each a link to its section (the theme's
-  // print table of contents lists the first page's own sections, not the book's chapters).
-  const toc = document.querySelector('#jb-print-toc');
-  if (toc) {
-    toc.innerHTML = '';
-    const h = document.createElement('h2');
-    h.textContent = 'Contents';
-    toc.appendChild(h);
-    const ul = document.createElement('ul');
-    ul.className = 'fivebar-print-contents';
-    heads.forEach((head, i) => {
-      const li = document.createElement('li');
-      const a = document.createElement('a');
-      const sec = head.closest('section');
-      a.href = '#' + (sec && sec.id ? sec.id : '');
-      a.textContent = titles[i];
-      li.appendChild(a);
-      ul.appendChild(li);
-    });
-    toc.appendChild(ul);
-  }
-  return titles;
-}
-"""
-
-#: Resolves when MathJax has typeset the whole page; returns what it could not typeset.
-MATHJAX_JS = r"""
-async () => {
-  if (!(window.MathJax && MathJax.startup && MathJax.startup.promise)) return {missing: true};
-  await MathJax.startup.promise;
-  if (MathJax.typesetPromise) await MathJax.typesetPromise();
-  const untypeset = Array.from(document.querySelectorAll('.math'))
-      .filter(el => !el.querySelector('mjx-container')).length;
-  const errors = document.querySelectorAll('mjx-merror, [data-mjx-error]').length;
-  return {missing: false, typeset: document.querySelectorAll('mjx-container').length,
-          untypeset, errors};
-}
-"""
+#: What the PDF build needs besides the project's environment (Debian's TeX Live packages).
+TEX_TOOLS = ("xelatex", "latexmk", "xindy")
+TEX_PACKAGES = ("texlive-latex-recommended", "texlive-latex-extra", "texlive-fonts-recommended",
+                "texlive-xetex", "latexmk", "xindy", "fonts-freefont-otf", "tex-gyre")
 
 
-class _QuietHandler(http.server.SimpleHTTPRequestHandler):
-    def log_message(self, *args) -> None:  # noqa: D401 - silence the access log
-        pass
-
-
-def _serve(folder: Path) -> tuple[http.server.ThreadingHTTPServer, str]:
-    handler = functools.partial(_QuietHandler, directory=str(folder))
-    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
-    threading.Thread(target=server.serve_forever, daemon=True).start()
-    return server, f"http://127.0.0.1:{server.server_address[1]}/"
-
-
-def _version() -> str:
-    for line in (ROOT / "CITATION.cff").read_text().splitlines():
-        if line.startswith("version:"):
-            return line.split(":", 1)[1].strip().strip('"')
-    return "unknown"
-
-
-def print_pdf(html_dir: Path, pdf: Path, edition: str) -> dict:
-    """Print ``html_dir/index.html`` (a singlehtml build) to ``pdf``; return a summary."""
-    from playwright.sync_api import sync_playwright
-
-    if not Path(CHROMIUM).is_file():
-        raise SystemExit(f"Chromium not found at {CHROMIUM}: install Debian's 'chromium' "
-                         "or set FIVEBAR_CHROMIUM to a Chromium binary")
-    config = yaml.safe_load((ROOT / "_config.yml").read_text())
-    subtitle = f"Version {_version()} \u00b7 {edition} edition \u00b7 {config.get('author', '')}"
-    server, url = _serve(html_dir)
-    try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS,
-                                        headless=True)
-            try:
-                page = browser.new_page()
-                remote: list[str] = []
-                page.on("request", lambda r: remote.append(r.url)
-                        if not r.url.startswith(url) and not r.url.startswith("data:") else None)
-                t0 = time.perf_counter()
-                page.goto(url + PRINT_PAGE, wait_until="networkidle", timeout=300_000)
-                t1 = time.perf_counter()
-                math = page.evaluate(MATHJAX_JS)
-                t2 = time.perf_counter()
-                if math.get("missing"):
-                    raise SystemExit("MathJax did not load in the single-page book")
-                if math["untypeset"] or math["errors"]:
-                    raise SystemExit(f"MathJax left {math['untypeset']} equations untypeset and "
-                                     f"{math['errors']} with TeX errors")
-                page.emulate_media(media="print")
-                page.add_style_tag(content=PRINT_CSS)
-                titles = page.evaluate(PREPARE_JS, subtitle)
-                # Images in what was folded may be lazy: load and decode every one.
-                broken = page.evaluate("""async () => {
-                  const imgs = Array.from(document.images);
-                  imgs.forEach(i => { i.loading = 'eager'; });
-                  await Promise.all(imgs.map(i => i.decode().catch(() => null)));
-                  return imgs.filter(i => !i.complete || i.naturalWidth === 0)
-                             .map(i => i.getAttribute('src'));
-                }""")
-                if broken:
-                    raise SystemExit(f"images that do not load in the single-page book: "
-                                     f"{broken[:5]}")
-                pdf.parent.mkdir(parents=True, exist_ok=True)
-                page.pdf(
-                    path=str(pdf),
-                    format="A4",
-                    print_background=True,
-                    display_header_footer=True,
-                    header_template="<span></span>",
-                    footer_template=(
-                        '<div style="font-size:8px;width:100%;text-align:center;color:#555">'
-                        '<span class="pageNumber"></span> / <span class="totalPages"></span>'
-                        "</div>"),
-                    margin={"top": "15mm", "bottom": "15mm", "left": "14mm", "right": "14mm"},
-                    scale=SCALE,
-                    outline=OUTLINE,
-                    tagged=OUTLINE,
-                )
-                t3 = time.perf_counter()
-            finally:
-                browser.close()
-    finally:
-        server.shutdown()
-    if remote:
-        raise SystemExit(f"the single-page book requested resources from other hosts: "
-                         f"{sorted(set(remote))[:5]}")
-    return {"pdf": str(pdf), "bytes": pdf.stat().st_size, "chapters": titles,
-            "equations_typeset": math["typeset"],
-            "seconds": {"load": t1 - t0, "mathjax": t2 - t1, "print": t3 - t2}}
+def missing_tex_tools() -> list[str]:
+    """The TeX programs the PDF needs that are not on the PATH."""
+    return [tool for tool in TEX_TOOLS if shutil.which(tool) is None]
 
 
 def _sources() -> list[Path]:
@@ -417,35 +212,101 @@ def _sources() -> list[Path]:
     return out
 
 
+def _version() -> str:
+    for line in (ROOT / "CITATION.cff").read_text().splitlines():
+        if line.startswith("version:"):
+            return line.split(":", 1)[1].strip().strip('"')
+    return "unknown"
+
+
+def _title_page(edition: str) -> str:
+    """The LaTeX title page: title, author, version and edition (``latex_elements['maketitle']``)."""
+    config = yaml.safe_load((ROOT / "_config.yml").read_text())
+    title, _, subtitle = str(config["title"]).partition(": ")
+    esc = lambda t: t.replace("&", r"\&").replace("%", r"\%").replace("_", r"\_")  # noqa: E731
+    extra = ("Student edition: the exercises without their solutions" if edition == "student"
+             else "Instructor edition: the exercises with their solutions")
+    return r"""
+\begin{titlepage}
+\centering
+\vspace*{0.18\textheight}
+{\Huge\bfseries %s\par}
+\vspace{0.8em}
+{\LARGE %s\par}
+\vspace{3em}
+{\large Reproducing, checking and extending R.-G. Wang, G.-W. Cai and X.-R. Zhou (2011),\par
+\emph{Mathematical Problems in Engineering}, Article ID 254547\par}
+\vfill
+{\large %s\par}
+\vspace{1em}
+{\large Version %s\par}
+\vspace{0.5em}
+{\normalsize %s\par}
+\vspace{2em}
+{\small Code: BSD-3-Clause. Text and figures: CC BY 4.0.\par}
+\end{titlepage}
+""" % (esc(title), esc(subtitle or ""), esc(str(config.get("author", ""))), _version(), extra)
+
+
+def build_latex(edition: str = "instructor") -> Path:
+    """The LaTeX sources of the book (``_build/pdf/latex[-student]/fivebar.tex``)."""
+    suffix = "" if edition == "instructor" else f"-{edition}"
+    out = BUILD / "pdf" / f"latex{suffix}"
+    overrides = {**_edition_overrides(edition),
+                 "latex_elements": {"maketitle": _title_page(edition),
+                                    "papersize": "a4paper", "pointsize": "10pt",
+                                    "releasename": "Version", "fncychap": ""}}
+    _sphinx_build("latex", out, BUILD / "pdf" / f".doctrees-latex{suffix}", ROOT / "_toc.yml",
+                  overrides)
+    return out / "fivebar.tex"
+
+
+def run_latex(tex: Path) -> Path:
+    """XeLaTeX (through latexmk and the Makefile Sphinx writes) on ``tex``; return the PDF."""
+    missing = missing_tex_tools()
+    if missing:
+        raise SystemExit(f"the PDF needs {', '.join(missing)} (Debian: apt-get install "
+                         f"{' '.join(TEX_PACKAGES)}); not found on the PATH")
+    log = tex.with_suffix(".log")
+    run = subprocess.run(["make", "-C", str(tex.parent), "all-pdf",
+                          "LATEXMKOPTS=-interaction=nonstopmode -halt-on-error -silent"],
+                         capture_output=True, text=True)
+    pdf = tex.with_suffix(".pdf")
+    if run.returncode != 0 or not pdf.is_file():
+        tail = "\n".join((run.stdout + run.stderr).splitlines()[-30:])
+        if log.is_file():
+            errors = [line for line in log.read_text(errors="replace").splitlines()
+                      if line.startswith("!")][:10]
+            tail += "\nLaTeX errors:\n" + "\n".join(errors)
+        raise SystemExit(f"XeLaTeX failed on {tex} (exit {run.returncode}):\n{tail}")
+    return pdf
+
+
 def build_pdf(edition: str = "instructor", force: bool = False) -> Path:
     """``_build/pdf/fivebar.pdf`` (``fivebar-student.pdf`` for the student edition).
 
     Nothing is done if the PDF is newer than every source of the book (``force`` rebuilds).
     """
-    overrides = _edition_overrides(edition)
+    _edition_overrides(edition)
     pdf = pdf_path(edition)
     if not force and pdf.is_file():
         built = pdf.stat().st_mtime
         if all(p.stat().st_mtime <= built for p in _sources()):
             print(f"[fivebar_build] {pdf.relative_to(ROOT)} is up to date")
             return pdf
-    out = BUILD / "pdf"
-    suffix = "" if edition == "instructor" else f"-{edition}"
-    html = out / f"singlehtml{suffix}"
-    toc = numbered_toc(ROOT / "_toc.yml", out / f"_toc{suffix}.yml")
+    missing = missing_tex_tools()
+    if missing:  # fail before the Sphinx build, not after it
+        raise SystemExit(f"the PDF needs {', '.join(missing)} (Debian: apt-get install "
+                         f"{' '.join(TEX_PACKAGES)}); not found on the PATH")
     t0 = time.perf_counter()
-    # the copy of the last build is not a page of this one (the build checks every page's links)
-    (html / PRINT_PAGE).unlink(missing_ok=True)
-    _sphinx_build("singlehtml", html, out / f".doctrees{suffix}", toc, overrides)
-    root = yaml.safe_load(toc.read_text())["root"]
-    shutil.copyfile(html / f"{root}.html", html / PRINT_PAGE)
+    tex = build_latex(edition)
     t1 = time.perf_counter()
-    summary = print_pdf(html, pdf, edition)
+    made = run_latex(tex)
     t2 = time.perf_counter()
-    print(f"[fivebar_build] {pdf.relative_to(ROOT)}: {summary['bytes'] / 1e6:.1f} MB, "
-          f"{len(summary['chapters'])} chapters, {summary['equations_typeset']} equations; "
-          f"singlehtml {t1 - t0:.0f} s, printing {t2 - t1:.0f} s "
-          f"({', '.join(f'{k} {v:.0f} s' for k, v in summary['seconds'].items())})")
+    pdf.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(made, pdf)
+    print(f"[fivebar_build] {pdf.relative_to(ROOT)}: {pdf.stat().st_size / 1e6:.1f} MB; "
+          f"Sphinx LaTeX build {t1 - t0:.0f} s, XeLaTeX {t2 - t1:.0f} s")
     return pdf
 
 
@@ -467,7 +328,7 @@ def _pdf_role(name, rawtext, text, lineno, inliner, options=None, content=None):
     edition = "student" if env.config.hide_solutions else "instructor"
     pdf = pdf_path(edition)
     rel = "/" + pdf.relative_to(ROOT).as_posix()  # "/..." is relative to the source folder
-    if pdf.is_file() and env.app.builder.name != "singlehtml":
+    if pdf.is_file() and env.app.builder.format == "html":
         node = addnodes.download_reference(rawtext, "", refdoc=env.docname, refdomain="",
                                            reftype="download", refexplicit=True,
                                            reftarget=rel)
@@ -477,7 +338,7 @@ def _pdf_role(name, rawtext, text, lineno, inliner, options=None, content=None):
     # No PDF (or the PDF itself is being made): plain text, and a dependency on the missing
     # file so that the page is read again once the PDF exists.
     env.note_dependency(pdf.relative_to(ROOT).as_posix())
-    if env.app.builder.name == "singlehtml":
+    if env.app.builder.format != "html":  # the PDF itself: no link to itself
         return [nodes.Text(text)], []
     return [nodes.Text(text), nodes.Text(" (not built: run "), nodes.literal("", "make pdf"),
             nodes.Text(")")], []
@@ -503,13 +364,6 @@ def setup(app):
     """Sphinx entry point: the ``{fivebar-pdf}`` role."""
     app.add_role("fivebar-pdf", _pdf_role)
     app.connect("env-updated", _drop_stale_pdf_copies)
-    # myst-nb writes folded code cells (tag hide-input) for the html builder only; the
-    # singlehtml build of the PDF needs the same writer (the print CSS unfolds them).
-    from myst_nb.sphinx_ import HideCodeCellNode, depart_HideCellInput, visit_HideCellInput
-
-    app.add_node(HideCodeCellNode, override=True,
-                 html=(visit_HideCellInput, depart_HideCellInput),
-                 singlehtml=(visit_HideCellInput, depart_HideCellInput))
     return {"version": "1.0", "parallel_read_safe": True, "parallel_write_safe": True}
 
 
