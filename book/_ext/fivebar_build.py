@@ -9,26 +9,26 @@ Both are the same Jupyter Book build as ``make book`` (``_config.yml``, ``_toc.y
 are errors, nitpicky), called through jupyter-book's Python API so that Sphinx settings can be
 overridden without a second configuration file:
 
-* **student**: ``hide_solutions = True`` (sphinx-exercise).  The ``{solution}`` directives
+* **student**: ``hide_solutions = True`` (sphinx-exercise) and the Sphinx tag ``student``
+  (``{only} student`` blocks, e.g. in "Run it yourself").  The ``{solution}`` directives
   then produce no node at all, so the solutions' text is absent from the HTML, not hidden.
   The sources the pages offer for download (``_sources/**.ipynb``, ``.md``) are copies of the
   chapters *with* their solutions, so the student build removes the solution blocks from
-  those copies too (:func:`strip_solutions`).
-* **pdf**: Sphinx's ``singlehtml`` builder (the whole book on one page, chapters numbered) is
-  printed to PDF by the headless Chromium of the browser test (Debian's ``/usr/bin/chromium``
-  driven by playwright), after MathJax has typeset every equation, with print CSS (each
-  chapter on a new page, no sidebars or buttons, solutions unfolded), the theme's print title
-  and table of contents on the first page (with the version and edition added), page numbers
-  in the footer and a PDF outline (bookmarks).  The PDF numbers its chapters whether or not
-  ``_toc.yml`` does (:func:`numbered_toc`).  ``--edition student`` prints the student edition
-  instead.  An up-to-date PDF (newer than every source) is not printed again.
+  those copies too (:func:`strip_solutions`).  It first writes the student archive
+  (:func:`build_student_archive`): the chapters without solutions, the data, the library and
+  its pinned requirements, which the student pages offer instead of the repository.
+* **pdf**: Sphinx's LaTeX builder (with sphinx-jupyterbook-latex and ``fivebar_latex``) and
+  XeLaTeX through latexmk (Debian's TeX Live, :data:`TEX_PACKAGES`): a title page, contents
+  with page numbers, running heads, numbered chapters as in the HTML, an index.
+  ``--edition student`` builds the student edition's PDF.  An up-to-date PDF (newer than
+  every source) is not built again.
 
 As a Sphinx extension (``sphinx.local_extensions`` in ``_config.yml``) the module adds the role
 ``{fivebar-pdf}`text```: a download link to the PDF of the edition being built
 (``_build/pdf/fivebar.pdf``, or ``fivebar-student.pdf`` when solutions are hidden) if that PDF
 exists when the page is read, and otherwise the text followed by "(not built: run ``make
-pdf``)" -- so the link is never dead.  A page with the role is re-read whenever the PDF
-appears or changes.
+pdf``)" -- so the link is never dead; likewise ``{fivebar-archive}`text``` for the student
+archive.  A page with the role is re-read whenever the file appears or changes.
 
 Every build reads the notebooks' outputs from the execution cache of ``make book``
 (``_build/.jupyter_cache``): nothing is re-executed if the HTML book is up to date.  Each
@@ -56,7 +56,7 @@ CACHE = BUILD / ".jupyter_cache"  # shared with `make book`
 EDITIONS = ("instructor", "student")
 PDF_NAME = "fivebar.pdf"
 def _sphinx_build(builder: str, outdir: Path, doctreedir: Path, toc: Path,
-                  overrides: dict) -> None:
+                  overrides: dict, tags: list[str] | None = None) -> None:
     """One strict jupyter-book build (as ``make book``: -W -n --keep-going)."""
     from jupyter_book.sphinx import build_sphinx
 
@@ -78,6 +78,7 @@ def _sphinx_build(builder: str, outdir: Path, doctreedir: Path, toc: Path,
         builder=builder,
         warningiserror=True,
         keep_going=True,
+        tags=tags or [],
     )
     if result != 0:
         raise SystemExit(f"the {builder} build into {outdir} failed (exit {result}); "
@@ -174,13 +175,71 @@ def strip_sources(html: Path) -> int:
     return n
 
 
+#: The student archive: what a student needs to run the chapters, without the solutions.
+STUDENT_ARCHIVE = BUILD / "student" / "fivebar-student.zip"
+#: Files of the repository in the archive besides the chapters (``lib/`` and ``data/`` whole).
+ARCHIVE_FILES = ("pyproject.toml", "requirements-lock.txt", "LICENSE", "CITATION.cff")
+ARCHIVE_README = """fivebar, student edition: the chapters as notebooks, without the exercises' solutions.
+
+Set up once (Python 3.11; nothing outside this folder is changed):
+
+    python3 -m venv .venv
+    .venv/bin/python -m pip install -r requirements-lock.txt
+    .venv/bin/python -m pip install --no-deps -e .
+
+Then open a chapter:
+
+    .venv/bin/jupyter lab book/05_modes.ipynb
+
+book/   the chapters (notebooks, with their stored outputs)
+data/   the parameter file (every number of the paper, every assumption) and reference data
+lib/    the library fivebar that the chapters import
+"""
+
+
+def chapter_notebooks() -> list[Path]:
+    """The numbered chapters' notebooks (``book/NN_name.ipynb``)."""
+    return sorted(p for p in (ROOT / "book").glob("[0-9][0-9]_*.ipynb"))
+
+
+def build_student_archive(path: Path = STUDENT_ARCHIVE) -> tuple[Path, int]:
+    """A zip of the chapters (solutions removed), the data, the library and its pinned
+    requirements; return its path and the number of solutions removed."""
+    import zipfile
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    n = 0
+    with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr("fivebar-student/README.txt", ARCHIVE_README)
+        for nb_path in chapter_notebooks():
+            nb = json.loads(nb_path.read_text(encoding="utf-8"))
+            n += strip_notebook_solutions(nb)
+            zf.writestr(f"fivebar-student/book/{nb_path.name}",
+                        json.dumps(nb, indent=1, ensure_ascii=False) + "\n")
+        files = [ROOT / f for f in ARCHIVE_FILES]
+        for folder in ("data", "lib"):
+            files += [p for p in sorted((ROOT / folder).rglob("*"))
+                      if p.is_file() and "__pycache__" not in p.parts
+                      and not any(part.endswith(".egg-info") for part in p.parts)]
+        for f in files:
+            if f.is_file():  # data/ links into lib/fivebar/data: stored as copies
+                zf.write(f.resolve(), f"fivebar-student/{f.relative_to(ROOT).as_posix()}")
+    tmp.replace(path)
+    return path, n
+
+
 def build_student(out: Path = BUILD / "student") -> Path:
-    """The student edition (no solutions) in ``_build/student/html``."""
+    """The student edition (no solutions) in ``_build/student/html``, and the student archive
+    (made first, so that the pages can offer it)."""
+    archive, k = build_student_archive()
+    print(f"[fivebar_build] {archive.relative_to(ROOT)}: {k} solutions removed from "
+          f"{len(chapter_notebooks())} chapters")
     html = out / "html"
     stamp = html / ".fivebar-build-ok"
     stamp.unlink(missing_ok=True)
     _sphinx_build("html", html, out / ".doctrees", ROOT / "_toc.yml",
-                  _edition_overrides("student"))
+                  _edition_overrides("student"), tags=["student"])
     n = strip_sources(html)
     print(f"[fivebar_build] removed {n} solutions from the downloadable sources")
     stamp.touch()
@@ -257,7 +316,7 @@ def build_latex(edition: str = "instructor") -> Path:
                                     "papersize": "a4paper", "pointsize": "10pt",
                                     "releasename": "Version", "fncychap": ""}}
     _sphinx_build("latex", out, BUILD / "pdf" / f".doctrees-latex{suffix}", ROOT / "_toc.yml",
-                  overrides)
+                  overrides, tags=[edition] if edition == "student" else None)
     return out / "fivebar.tex"
 
 
@@ -320,28 +379,38 @@ def pdf_path(edition: str) -> Path:
     return BUILD / "pdf" / (PDF_NAME if edition == "instructor" else f"fivebar-{edition}.pdf")
 
 
-def _pdf_role(name, rawtext, text, lineno, inliner, options=None, content=None):
+def _download(env, rawtext: str, text: str, target: Path, how: str):
+    """A download link to ``target`` if it exists when the page is read, else the text and how
+    to build it; the page depends on the file (read again when it appears or changes)."""
     from docutils import nodes
     from sphinx import addnodes
 
-    env = inliner.document.settings.env
-    edition = "student" if env.config.hide_solutions else "instructor"
-    pdf = pdf_path(edition)
-    rel = "/" + pdf.relative_to(ROOT).as_posix()  # "/..." is relative to the source folder
-    if pdf.is_file() and env.app.builder.format == "html":
+    rel = "/" + target.relative_to(ROOT).as_posix()  # "/..." is relative to the source folder
+    if target.is_file() and env.app.builder.format == "html":
         node = addnodes.download_reference(rawtext, "", refdoc=env.docname, refdomain="",
                                            reftype="download", refexplicit=True,
                                            reftarget=rel)
         node += nodes.literal(rawtext, text, classes=["xref", "download"])
-        size = f" ({pdf.stat().st_size / 1e6:.0f} MB)"
-        return [node, nodes.Text(size)], []
-    # No PDF (or the PDF itself is being made): plain text, and a dependency on the missing
-    # file so that the page is read again once the PDF exists.
-    env.note_dependency(pdf.relative_to(ROOT).as_posix())
-    if env.app.builder.format != "html":  # the PDF itself: no link to itself
+        size = target.stat().st_size / 1e6
+        return [node, nodes.Text(f" ({size:.0f} MB)" if size >= 1 else f" ({size:.1f} MB)")], []
+    env.note_dependency(target.relative_to(ROOT).as_posix())
+    if env.app.builder.format != "html":  # the PDF: no link to itself
         return [nodes.Text(text)], []
-    return [nodes.Text(text), nodes.Text(" (not built: run "), nodes.literal("", "make pdf"),
+    return [nodes.Text(text), nodes.Text(" (not built: run "), nodes.literal("", how),
             nodes.Text(")")], []
+
+
+def _pdf_role(name, rawtext, text, lineno, inliner, options=None, content=None):
+    env = inliner.document.settings.env
+    edition = "student" if env.config.hide_solutions else "instructor"
+    how = "make pdf" if edition == "instructor" else "make pdf EDITION=student"
+    return _download(env, rawtext, text, pdf_path(edition), how)
+
+
+def _archive_role(name, rawtext, text, lineno, inliner, options=None, content=None):
+    """``{fivebar-archive}`text```: the student archive (built by ``make book-student``)."""
+    env = inliner.document.settings.env
+    return _download(env, rawtext, text, STUDENT_ARCHIVE, "make book-student")
 
 
 def _drop_stale_pdf_copies(app, env) -> None:
@@ -353,8 +422,7 @@ def _drop_stale_pdf_copies(app, env) -> None:
     """
     if app.builder.format != "html":
         return
-    for edition in EDITIONS:
-        src = pdf_path(edition)
+    for src in [*(pdf_path(e) for e in EDITIONS), STUDENT_ARCHIVE]:
         for old in Path(app.outdir, "_downloads").glob(f"*/{src.name}"):
             if not src.is_file() or old.stat().st_mtime < src.stat().st_mtime:
                 old.unlink()
@@ -363,6 +431,7 @@ def _drop_stale_pdf_copies(app, env) -> None:
 def setup(app):
     """Sphinx entry point: the ``{fivebar-pdf}`` role."""
     app.add_role("fivebar-pdf", _pdf_role)
+    app.add_role("fivebar-archive", _archive_role)
     app.connect("env-updated", _drop_stale_pdf_copies)
     return {"version": "1.0", "parallel_read_safe": True, "parallel_write_safe": True}
 

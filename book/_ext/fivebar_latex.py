@@ -161,8 +161,22 @@ def _preamble(app: Sphinx, config: Any) -> None:
 """
 
 
+def _keep_numfig_depth(app: Sphinx, config: Any) -> None:
+    app._fivebar_numfig_secnum_depth = config.numfig_secnum_depth
+
+
+def _restore_numfig_depth(app: Sphinx) -> None:
+    """sphinx-jupyterbook-latex numbers figures, tables, equations and exercises per section
+    (``numfig_secnum_depth`` 2: "Exercise 7.9.1") when the book has parts; the HTML book
+    numbers them per chapter ("Exercise 7.1").  The PDF keeps the HTML's depth."""
+    if app.builder.format == "latex":
+        app.config.numfig_secnum_depth = app._fivebar_numfig_secnum_depth
+
+
 def setup(app: Sphinx) -> dict[str, Any]:
     app.add_post_transform(PrintedBook)
     app.connect("config-inited", _preamble, priority=900)
+    app.connect("config-inited", _keep_numfig_depth, priority=900)
+    app.connect("builder-inited", _restore_numfig_depth, priority=900)
     return {"version": __version__, "env_version": 1, "parallel_read_safe": True,
             "parallel_write_safe": True}
