@@ -110,9 +110,25 @@ def _probe(body: str) -> str:
     return max(runs, key=len)
 
 
-def _page_text(path: Path) -> str:
+def _notebook_text(raw: str) -> str:
+    """A notebook's cells (sources and text outputs) as one text: a probe that a stored
+    notebook splits over two JSON strings (one per line) is found all the same."""
+    nb = json.loads(raw)
+    parts = []
+    for cell in nb.get("cells", []):
+        parts.append("".join(cell.get("source", "")))
+        for out in cell.get("outputs", []):
+            parts.append("".join(out.get("text", "")))
+            parts.append("".join(out.get("data", {}).get("text/plain", "")))
+    return "\n".join(parts)
+
+
+def _page_text(path: Path, raw: str | None = None) -> str:
     """What a reader (or a search, or a text editor) finds in a built file."""
-    raw = path.read_text(encoding="utf-8", errors="replace")
+    if raw is None:
+        raw = path.read_text(encoding="utf-8", errors="replace")
+    if path.suffix == ".ipynb":
+        raw = _notebook_text(raw)
     if path.suffix == ".html":
         raw = re.sub(r"<[^>]+>", " ", raw)
     raw = html.unescape(raw)
@@ -158,8 +174,7 @@ def _archive_text(path: Path) -> dict[str, str]:
     import zipfile
 
     with zipfile.ZipFile(path) as zf:
-        return {name: re.sub(r"\s+", " ", html.unescape(zf.read(name).decode("utf-8", "replace"))
-                             .replace("\\n", " "))
+        return {name: _page_text(Path(name), zf.read(name).decode("utf-8", "replace"))
                 for name in zf.namelist() if not name.endswith("/")}
 
 
