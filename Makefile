@@ -67,9 +67,9 @@ pdf: venv
 	$(BIN)/python book/_ext/fivebar_build.py pdf --edition $(EDITION) 2>&1 | tee _build/pdf$(if $(filter student,$(EDITION)),-student).log
 
 pdf-if-tex: venv
-	@if command -v xelatex >/dev/null && command -v latexmk >/dev/null && command -v xindy >/dev/null; \
+	@if command -v xelatex >/dev/null && command -v latexmk >/dev/null && command -v makeindex >/dev/null; \
 	then $(MAKE) --no-print-directory pdf EDITION=$(EDITION); \
-	else echo "no XeLaTeX/latexmk/xindy: no PDF (tests/test_pdf.py skips it; under CI it fails)"; fi
+	else echo "no XeLaTeX/latexmk/makeindex: no PDF (tests/test_pdf.py skips it; under CI it fails)"; fi
 
 ## make book-clean: force a full re-execution of every notebook and a full rebuild (and
 ## regenerate the CSV downloads and animation pages in book/_generated)

@@ -251,9 +251,9 @@ def build_student(out: Path = BUILD / "student") -> Path:
 # --------------------------------------------------------------------------------------------
 
 #: What the PDF build needs besides the project's environment (Debian's TeX Live packages).
-TEX_TOOLS = ("xelatex", "latexmk", "xindy")
+TEX_TOOLS = ("xelatex", "latexmk", "makeindex")
 TEX_PACKAGES = ("texlive-latex-recommended", "texlive-latex-extra", "texlive-fonts-recommended",
-                "texlive-xetex", "latexmk", "xindy", "fonts-freefont-otf", "tex-gyre")
+                "texlive-xetex", "latexmk", "fonts-freefont-otf", "tex-gyre")
 
 
 def missing_tex_tools() -> list[str]:

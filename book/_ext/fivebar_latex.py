@@ -3,7 +3,7 @@
 The PDF is made by Sphinx's LaTeX builder and XeLaTeX (``book/_ext/fivebar_build.py pdf``) with
 the class of sphinx-jupyterbook-latex: ``_toc.yml``'s parts become ``\\part`` pages, its
 chapters ``\\chapter``\\ s, the contents list both with page numbers, running heads carry the
-chapter and section, and the index (``\\printindex``, built by xindy) lists the terms of
+chapter and section, and the index (``\\printindex``, built by makeindex) lists the terms of
 ``book/_ext/fivebar_index.py``.  This module makes the printed numbers those of the HTML book:
 
 * **One numbering.**  LaTeX numbers every ``\\chapter`` itself; the HTML book numbers only the
@@ -16,6 +16,7 @@ chapter and section, and the index (``\\printindex``, built by xindy) lists the 
   HTML's do (``numfig_secnum_depth`` 1).
 * **The root page** (``book/index``) is the printed book's first, unnumbered chapter; its
   title is the title page's, so the chapter is headed "About this book".
+* **Long tables** break across pages (no page left blank before a table, none running off).
 * **Web-only pages**: the API reference is replaced by a one-paragraph chapter that points to
   the HTML book's API page (the PDF stays a book: 102 of its 291 pages were API reference),
   and the "References" page, empty once its bibliography has moved to the end of the book, is
@@ -38,6 +39,8 @@ __version__ = "1.0"
 API_DOC = "book/api"
 REFERENCES_DOC = "book/references"
 ROOT_HEADING = "About this book"
+#: Tables with more rows than this break across pages.
+LONG_TABLE_ROWS = 6
 
 
 def numbered_docs(app: Sphinx) -> dict[str, bool]:
@@ -67,6 +70,7 @@ class PrintedBook(SphinxPostTransform):
         if self.app.project.path2doc(self.document["source"]) != root:
             return
         self._unlink_api()
+        self._long_tables()
         numbered = numbered_docs(self.app)
         for sof in list(self.document.findall(addnodes.start_of_file)):
             doc = sof.get("docname")
@@ -97,6 +101,15 @@ class PrintedBook(SphinxPostTransform):
                 section.insert(at, _raw(r"\setcounter{secnumdepth}{-1}"
                                         r"\chapter{%s}" % ROOT_HEADING))
                 break
+
+    def _long_tables(self) -> None:
+        """Tables of more than a few rows break across pages (LaTeX's longtable): a table that
+        cannot break is pushed whole to the next page, leaving most of a page blank, or runs
+        off the bottom of the page when it is longer than one (the course map, the errata)."""
+        for table in self.document.findall(nodes.table):
+            rows = sum(1 for _ in table.findall(nodes.row))
+            if rows > LONG_TABLE_ROWS and "longtable" not in table["classes"]:
+                table["classes"].append("longtable")
 
     def _unlink_api(self) -> None:
         """Links into the API page (not printed) become their text (a name in code font)."""
@@ -139,6 +152,9 @@ def _preamble(app: Sphinx, config: Any) -> None:
     if str(CLASS_FILE) not in config.latex_additional_files:
         config.latex_additional_files = [*config.latex_additional_files, str(CLASS_FILE)]
     config.latex_domain_indices = False  # no "Python Module Index" of 25 "??" entries
+    # makeindex, not xindy: Sphinx's xindy style writes a page range "39-41" as "3941"; the
+    # index terms are ASCII, which makeindex sorts correctly
+    config.latex_use_xindy = False
     elements = config.latex_elements
     elements.setdefault("papersize", "a4paper")
     elements.setdefault("pointsize", "10pt")
@@ -146,6 +162,8 @@ def _preamble(app: Sphinx, config: Any) -> None:
     elements["preamble"] = elements.get("preamble", "") + r"""
 % fivebar: the book's section-number depth, restored before each numbered chapter
 \AtBeginDocument{\edef\fivebarsecnumdepth{\the\value{secnumdepth}}}
+% index entries are terms, not code: in the text face (Sphinx sets them in typewriter)
+\renewcommand{\sphinxstyleindexentry}[1]{#1}
 % the bibliography is the chapter "References"
 \addto\captionsenglish{\renewcommand{\bibname}{References}}
 % running heads: the chapter on the left, the section on the right; the page number below
