@@ -230,6 +230,25 @@ def test_student_pages_offer_student_products(student: Path) -> None:
         assert "git clone" in _page_text(instructor_run)  # the control: the probe can fail
 
 
+def _numbers(root: Path) -> dict[str, tuple[list[str], list[str]]]:
+    """{page: (chapter and section numbers, exercise numbers)} of a built edition."""
+    out = {}
+    for page in sorted((root / "book").glob("*.html")):
+        text = page.read_text(encoding="utf-8")
+        out[page.name] = (re.findall(r'<span class="section-number">([\d.]+) </span>', text),
+                          re.findall(r'<span class="caption-number">Exercise ([\d.]+) </span>', text))
+    return out
+
+
+def test_student_edition_numbers_as_the_instructor_edition(student: Path, instructor: Path) -> None:
+    """One numbering: chapters, sections and exercises carry the same numbers in both editions
+    (the PDF's are compared with the HTML's in tests/test_pdf.py)."""
+    s, i = _numbers(student), _numbers(instructor)
+    assert sum(len(ex) for _, ex in i.values()) >= 20
+    differ = [name for name in i if s.get(name) != i[name]]
+    assert not differ, f"numbers differ between the editions on {differ}"
+
+
 def test_probe_finds_the_solutions_in_the_instructor_edition(instructor: Path) -> None:
     """The control: the same probes find every solution in the edition that has them."""
     pages = "\n".join(t for p, t in _built_text(instructor).items() if p.suffix == ".html")
