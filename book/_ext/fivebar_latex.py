@@ -1,10 +1,11 @@
 """The printed book: how the LaTeX build (``make pdf``) arranges the pages of ``_toc.yml``.
 
 The PDF is made by Sphinx's LaTeX builder and XeLaTeX (``book/_ext/fivebar_build.py pdf``) with
-the class of sphinx-jupyterbook-latex: ``_toc.yml``'s parts become ``\\part`` pages, its
-chapters ``\\chapter``\\ s, the contents list both with page numbers, running heads carry the
-chapter and section, and the index (``\\printindex``, built by makeindex) lists the terms of
-``book/_ext/fivebar_index.py``.  This module makes the printed numbers those of the HTML book:
+sphinx-jupyterbook-latex and the book's class ``book/_ext/latex/fivebarbook.cls`` (Sphinx's
+manual class): ``_toc.yml``'s parts become ``\\part`` pages, its chapters ``\\chapter``\\ s,
+the contents list both with page numbers, running heads carry the chapter and the page
+number, and the index (``\\printindex``, built by makeindex) lists the terms of
+``book/_ext/index_terms.toml`` (``book/_ext/fivebar_index.py``).  This module makes the printed numbers those of the HTML book:
 
 * **One numbering.**  LaTeX numbers every ``\\chapter`` itself; the HTML book numbers only the
   chapters of the parts marked ``numbered`` in ``_toc.yml``.  Before every chapter the module
@@ -166,12 +167,12 @@ def _preamble(app: Sphinx, config: Any) -> None:
 \renewcommand{\sphinxstyleindexentry}[1]{#1}
 % the bibliography is the chapter "References"
 \addto\captionsenglish{\renewcommand{\bibname}{References}}
-% running heads: the chapter on the left, the section on the right; the page number below
+% running heads: the chapter on the left, the page number on the right (a section title
+% beside a long chapter title would overprint it)
 \makeatletter
 \fancypagestyle{normal}{\fancyhf{}%
   \fancyhead[L]{\py@HeaderFamily\nouppercase{\leftmark}}%
-  \fancyhead[R]{\py@HeaderFamily\nouppercase{\rightmark}}%
-  \fancyfoot[C]{\py@HeaderFamily\thepage}%
+  \fancyhead[R]{\py@HeaderFamily\thepage}%
   \renewcommand{\headrulewidth}{0.4pt}\renewcommand{\footrulewidth}{0pt}}
 \fancypagestyle{plain}{\fancyhf{}\fancyfoot[C]{\py@HeaderFamily\thepage}%
   \renewcommand{\headrulewidth}{0pt}\renewcommand{\footrulewidth}{0pt}}
