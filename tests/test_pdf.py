@@ -235,9 +235,18 @@ def _html_numbers() -> dict[str, tuple[int | None, list[str]]]:
         page = HTML / path.relative_to(ROOT).with_suffix(".html")
         text = page.read_text(encoding="utf-8")
         m = re.search(r'<h1><span class="section-number">(\d+)\. </span>', text)
-        exercises = re.findall(r'<span class="caption-number">Exercise (\d+(?:\.\d+)*) </span>', text)
-        out[title] = (int(m.group(1)) if m else None, exercises)
+        captions = {kind: re.findall(r'<span class="caption-number">%s (\d+(?:\.\d+)*) </span>'
+                                     % re.escape(kind), text)
+                    for kind in ("Exercise", "Fig.", "Table")}
+        out[title] = (int(m.group(1)) if m else None, captions)
     return out
+
+
+def _pdf_captions(text: str) -> dict[str, list[str]]:
+    """Exercise, figure and table numbers of a chapter's pages as printed (captions only)."""
+    return {"Exercise": re.findall(r"^\s*Exercise\s*(\d+(?:\.\d+)*)\s*$", text, re.M),
+            "Fig.": re.findall(r"^\s*Fig\.\s*(\d+(?:\.\d+)*):", text, re.M),
+            "Table": re.findall(r"^\s*Table\s*(\d+(?:\.\d+)*):", text, re.M)}
 
 
 @pytest.fixture(scope="module")
@@ -248,23 +257,26 @@ def html_numbers() -> dict[str, tuple[int | None, list[str]]]:
 
 
 def test_html_and_pdf_numbers_agree(reader, pages_text: list[str], html_numbers) -> None:
-    """Chapter and exercise numbers: the PDF's are the HTML's, chapter by chapter."""
+    """Chapter, exercise, figure and table numbers: the PDF's are the HTML's, chapter by
+    chapter (figures and tables as their captions number them)."""
     found = _pdf_chapters(reader, pages_text)
     pages = _chapter_pages(reader, pages_text)
     chapters = _chapters()
-    assert sum(len(ex) for _, ex in html_numbers.values()) >= 20
+    assert sum(len(c["Exercise"]) for _, c in html_numbers.values()) >= 20
     mismatches = [f"{t}: not in the PDF's contents" for _, t, _ in chapters if t not in found]
     chapters = [c for c in chapters if c[1] in found]
     for k, (_, title, _) in enumerate(chapters):
         number = found[title][0]
-        html_number, html_ex = html_numbers[title]
+        html_number, html_captions = html_numbers[title]
         if html_number != number:
             mismatches.append(f"{title}: chapter {html_number} in the HTML, {number} in the PDF")
         end = pages[chapters[k + 1][1]] if k + 1 < len(chapters) else len(pages_text)
         text = "\n".join(pages_text[pages[title]:end])
-        pdf_ex = re.findall(r"^\s*Exercise\s*(\d+(?:\.\d+)*)\s*$", text, re.M)
-        if pdf_ex != html_ex:
-            mismatches.append(f"{title}: exercises {html_ex} in the HTML, {pdf_ex} in the PDF")
+        pdf_captions = _pdf_captions(text)
+        for kind, html_list in html_captions.items():
+            if pdf_captions[kind] != html_list:
+                mismatches.append(f"{title}: {kind} {html_list} in the HTML, "
+                                  f"{pdf_captions[kind]} in the PDF")
     assert not mismatches, "numbers differ between HTML and PDF:\n" + "\n".join(mismatches)
 
 
