@@ -33,7 +33,6 @@ import functools
 import http.server
 import os
 import re
-import sys
 import threading
 import urllib.parse
 from collections.abc import Iterator
