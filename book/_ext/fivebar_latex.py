@@ -107,10 +107,19 @@ class PrintedBook(SphinxPostTransform):
         """Tables of more than a few rows break across pages (LaTeX's longtable): a table that
         cannot break is pushed whole to the next page, leaving most of a page blank, or runs
         off the bottom of the page when it is longer than one (the course map, the errata)."""
-        for table in self.document.findall(nodes.table):
+        for table in list(self.document.findall(nodes.table)):
             rows = sum(1 for _ in table.findall(nodes.row))
-            if rows > LONG_TABLE_ROWS and "longtable" not in table["classes"]:
-                table["classes"].append("longtable")
+            if rows <= LONG_TABLE_ROWS or "longtable" in table["classes"]:
+                continue
+            table["classes"].append("longtable")
+            if table.next_node(nodes.title) is None and table.parent is not None:
+                # LaTeX's longtable steps the table counter and heads its continuation
+                # "Table N - continued" even without a caption, which the HTML does not
+                # number: no number here, and the counter stepped back after it
+                at = table.parent.index(table)
+                table.parent.insert(at + 1, _raw(r"\endgroup\addtocounter{table}{-1}"))
+                table.parent.insert(at, _raw(r"\begingroup\renewcommand{\tablename}{}"
+                                             r"\renewcommand{\thetable}{}"))
 
     def _unlink_api(self) -> None:
         """Links into the API page (not printed) become their text (a name in code font)."""
