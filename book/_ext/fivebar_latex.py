@@ -172,6 +172,9 @@ def _preamble(app: Sphinx, config: Any) -> None:
     elements["preamble"] = elements.get("preamble", "") + r"""
 % fivebar: the book's section-number depth, restored before each numbered chapter
 \AtBeginDocument{\edef\fivebarsecnumdepth{\the\value{secnumdepth}}}
+% the text face with TeX's ligatures, so that "--" (the index's page ranges) prints an en dash
+\setmainfont{FreeSerif}[Extension=.otf, UprightFont=*, ItalicFont=*Italic, BoldFont=*Bold,
+  BoldItalicFont=*BoldItalic, Ligatures=TeX]
 % index entries are terms, not code: in the text face (Sphinx sets them in typewriter)
 \renewcommand{\sphinxstyleindexentry}[1]{#1}
 % the bibliography is the chapter "References"
