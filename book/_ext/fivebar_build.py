@@ -394,8 +394,8 @@ def _download(env, rawtext: str, text: str, target: Path, how: str):
         size = target.stat().st_size / 1e6
         return [node, nodes.Text(f" ({size:.0f} MB)" if size >= 1 else f" ({size:.1f} MB)")], []
     env.note_dependency(target.relative_to(ROOT).as_posix())
-    if env.app.builder.format != "html":  # the PDF: no link to itself
-        return [nodes.Text(text)], []
+    if env.app.builder.format != "html":  # in the PDF: no link (to itself, or to a build)
+        return [nodes.Text(f"{text} (this document)" if target.suffix == ".pdf" else text)], []
     return [nodes.Text(text), nodes.Text(" (not built: run "), nodes.literal("", how),
             nodes.Text(")")], []
 
