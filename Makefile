@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 # that nbval sees the same figure outputs as were stored (tests/conftest.py selects Agg).
 export PYDEVD_DISABLE_FILE_VALIDATION := 1
 
-.PHONY: venv test test-unit test-notebooks book book-clean book-student pdf pdf-if-chromium execute clean
+.PHONY: venv test test-unit test-notebooks book book-clean book-student pdf pdf-if-tex execute clean
 
 venv: $(STAMP)
 
@@ -22,8 +22,8 @@ $(STAMP): requirements-lock.txt pyproject.toml
 
 ## make test: the book (built first: warnings are errors), library unit tests, nbval (strict)
 ## over every notebook in book/, and the browser test of the built book (tests/test_browser.py);
-## the PDF is printed first (when Chromium is there) so that the book links it (tests/test_pdf.py)
-test: venv pdf-if-chromium book
+## the PDF is typeset first (when TeX is there) so that the book links it (tests/test_pdf.py)
+test: venv pdf-if-tex book
 	$(BIN)/python -m pytest -p no:cacheprovider tests book --nbval --nbval-current-env \
 	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
 
@@ -45,27 +45,31 @@ book: venv
 	$(BIN)/jupyter-book build . --builder html -W -n --keep-going 2>&1 | tee _build/book.log; \
 	touch _build/html/.fivebar-build-ok
 
-## make book-student: the student edition (no exercise solutions, neither in the pages nor in
-## the notebooks they offer for download) in _build/student/html.  The instructor edition,
-## with solutions, is `make book`.  Reuses the execution cache of `make book`.
+## make book-student: the student edition (no exercise solutions, neither in the pages, nor in
+## the notebooks they offer for download, nor in its PDF) in _build/student/html, with the
+## student archive of the chapters and data, _build/student/fivebar-student.zip, and (when TeX
+## is there) the student PDF, both offered by its pages.  The instructor edition, with
+## solutions, is `make book`.  Reuses the execution cache of `make book`.
 book-student: venv
 	@mkdir -p _build
+	@$(MAKE) --no-print-directory pdf-if-tex EDITION=student
 	set -eo pipefail; \
 	$(BIN)/python book/_ext/fivebar_build.py student 2>&1 | tee _build/student.log
 
 ## make pdf: the whole book as one PDF, _build/pdf/fivebar.pdf (EDITION=student:
-## _build/pdf/fivebar-student.pdf), printed by the headless Chromium from a singlehtml build;
-## reuses the execution cache of `make book` and copies the PDF into _build/html/ if it exists.
+## _build/pdf/fivebar-student.pdf), typeset by XeLaTeX from Sphinx's LaTeX build (TeX Live from
+## Debian: see book/run.md); reuses the execution cache of `make book`.  An up-to-date PDF
+## (newer than every source) is not built again.
 EDITION ?= instructor
 pdf: venv
 	@mkdir -p _build
 	set -eo pipefail; \
-	$(BIN)/python book/_ext/fivebar_build.py pdf --edition $(EDITION) 2>&1 | tee _build/pdf.log
+	$(BIN)/python book/_ext/fivebar_build.py pdf --edition $(EDITION) 2>&1 | tee _build/pdf$(if $(filter student,$(EDITION)),-student).log
 
-CHROMIUM ?= $(or $(FIVEBAR_CHROMIUM),/usr/bin/chromium)
-pdf-if-chromium: venv
-	@if [ -x "$(CHROMIUM)" ]; then $(MAKE) --no-print-directory pdf; \
-	else echo "no Chromium at $(CHROMIUM): no PDF (tests/test_pdf.py skips it; under CI it fails)"; fi
+pdf-if-tex: venv
+	@if command -v xelatex >/dev/null && command -v latexmk >/dev/null && command -v makeindex >/dev/null; \
+	then $(MAKE) --no-print-directory pdf EDITION=$(EDITION); \
+	else echo "no XeLaTeX/latexmk/makeindex: no PDF (tests/test_pdf.py skips it; under CI it fails)"; fi
 
 ## make book-clean: force a full re-execution of every notebook and a full rebuild (and
 ## regenerate the CSV downloads and animation pages in book/_generated)

@@ -33,7 +33,6 @@ import functools
 import http.server
 import os
 import re
-import sys
 import threading
 import urllib.parse
 from collections.abc import Iterator
@@ -46,9 +45,18 @@ ROOT = Path(__file__).resolve().parents[1]
 HTML = ROOT / "_build" / "html"
 STAMP = HTML / ".fivebar-build-ok"  # written by `make book` after a build without warnings
 SCREENSHOTS = ROOT / "_build" / "screenshots"
-sys.path.insert(0, str(ROOT / "book" / "_ext"))
-# One place for the browser and its headless flags (the PDF printer uses them too).
-from fivebar_build import CHROMIUM, CHROMIUM_ARGS  # noqa: E402  (book/_ext is not a package)
+#: The browser (Debian's chromium) and its headless flags: no network of its own, no updates.
+CHROMIUM = os.environ.get("FIVEBAR_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-quic",
+]
 #: A word the search page must find (it is in the introduction and in the chapters).
 SEARCH_WORD = "linkage"
 

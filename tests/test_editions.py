@@ -1,8 +1,11 @@
 """The book's editions, its launch buttons and its version.
 
-* **Student edition** (``make book-student`` -> ``_build/student/html``): the text of every
-  exercise solution in the notebooks is absent from every file of the built edition (pages,
-  search index, the notebooks offered for download), while the exercises are there; the
+* **Student edition** (``make book-student`` -> ``_build/student/html``, the student archive
+  ``_build/student/fivebar-student.zip`` and the student PDF ``_build/pdf/fivebar-student.pdf``):
+  the text of every exercise solution in the notebooks is absent from every student artefact
+  (pages, search index, the notebooks offered for download, the archive, the PDF), while the
+  exercises are there; the front page offers the student PDF and "Run it yourself" the archive,
+  not the repository; the
   solutions are found in the notebooks by markdown-it (the parser MyST itself uses), not by
   the regular expressions that remove them, and the same probe finds them in the instructor
   edition (``_build/html``) so that the check can fail.
@@ -107,9 +110,25 @@ def _probe(body: str) -> str:
     return max(runs, key=len)
 
 
-def _page_text(path: Path) -> str:
+def _notebook_text(raw: str) -> str:
+    """A notebook's cells (sources and text outputs) as one text: a probe that a stored
+    notebook splits over two JSON strings (one per line) is found all the same."""
+    nb = json.loads(raw)
+    parts = []
+    for cell in nb.get("cells", []):
+        parts.append("".join(cell.get("source", "")))
+        for out in cell.get("outputs", []):
+            parts.append("".join(out.get("text", "")))
+            parts.append("".join(out.get("data", {}).get("text/plain", "")))
+    return "\n".join(parts)
+
+
+def _page_text(path: Path, raw: str | None = None) -> str:
     """What a reader (or a search, or a text editor) finds in a built file."""
-    raw = path.read_text(encoding="utf-8", errors="replace")
+    if raw is None:
+        raw = path.read_text(encoding="utf-8", errors="replace")
+    if path.suffix == ".ipynb":
+        raw = _notebook_text(raw)
     if path.suffix == ".html":
         raw = re.sub(r"<[^>]+>", " ", raw)
     raw = html.unescape(raw)
@@ -149,6 +168,85 @@ def test_student_edition_keeps_the_exercises(student: Path) -> None:
                if _probe(body) not in built]
     assert not missing, "exercises missing from the student edition:\n" + "\n".join(missing)
     assert "Solution to" not in built
+
+
+def _archive_text(path: Path) -> dict[str, str]:
+    import zipfile
+
+    with zipfile.ZipFile(path) as zf:
+        return {name: _page_text(Path(name), zf.read(name).decode("utf-8", "replace"))
+                for name in zf.namelist() if not name.endswith("/")}
+
+
+def test_student_archive_has_the_chapters_without_solutions(student: Path) -> None:
+    archive = fivebar_build.STUDENT_ARCHIVE
+    assert archive.is_file(), "make book-student made no student archive"
+    files = _archive_text(archive)
+    names = {n.split("/", 1)[1] for n in files}
+    for nb in fivebar_build.chapter_notebooks():
+        assert f"book/{nb.name}" in names, f"{nb.name} missing from the student archive"
+    assert {"data/wang2011.toml", "lib/fivebar/__init__.py", "pyproject.toml",
+            "requirements-lock.txt"} <= names
+    leaks = [f"{nb}: {_probe(body)[:60]!r} in {n}" for nb, body in _blocks("solution")
+             for n, t in files.items() if _probe(body) in t]
+    assert not leaks, "solution text in the student archive:\n" + "\n".join(leaks)
+    text = "\n".join(files.values())
+    missing = [nb for nb, body in _blocks("exercise") if _probe(body) not in text]
+    assert not missing, f"exercises missing from the student archive: {missing}"
+
+
+def test_student_pdf_has_no_solution_text(student: Path) -> None:
+    pypdf = pytest.importorskip("pypdf")
+    pdf = fivebar_build.pdf_path("student")
+    if not pdf.is_file():
+        missing = fivebar_build.missing_tex_tools()
+        from book_build import unavailable
+
+        unavailable(f"no student PDF ({', '.join(missing) or 'TeX'} missing?)")
+    raw = " ".join(p.extract_text() or "" for p in pypdf.PdfReader(pdf).pages)
+    squash = lambda t: re.sub(r"[^a-z]", "", t.lower())  # noqa: E731 (PDF text loses spaces)
+    text = squash(raw)
+    leaks = [f"{nb}: {_probe(body)[:60]!r}" for nb, body in _blocks("solution")
+             if squash(_probe(body)) in text]
+    assert not leaks, "solution text in the student PDF:\n" + "\n".join(leaks)
+    missing = [nb for nb, body in _blocks("exercise") if squash(_probe(body)) not in text]
+    assert len(missing) <= 2, f"exercises missing from the student PDF: {missing}"
+    assert "studentedition" in squash(pypdf.PdfReader(pdf).pages[0].extract_text())
+
+
+def test_student_pages_offer_student_products(student: Path) -> None:
+    """The front page links the student PDF (not the instructor's), "Run it yourself" the
+    student archive and no repository to clone."""
+    front = (student / "book" / "index.html").read_text(encoding="utf-8")
+    run = (student / "book" / "run.html").read_text(encoding="utf-8")
+    links = " ".join(re.findall(r'href="([^"]+)"', front + run))
+    assert "fivebar.pdf" not in links, "the student edition links the instructor PDF"
+    if fivebar_build.pdf_path("student").is_file():
+        assert "fivebar-student.pdf" in links
+    assert "fivebar-student.zip" in links, "Run it yourself does not offer the student archive"
+    assert "git clone" not in _page_text(student / "book" / "run.html")
+    instructor_run = INSTRUCTOR / "book" / "run.html"
+    if instructor_run.is_file():
+        assert "git clone" in _page_text(instructor_run)  # the control: the probe can fail
+
+
+def _numbers(root: Path) -> dict[str, tuple[list[str], list[str]]]:
+    """{page: (chapter and section numbers, exercise numbers)} of a built edition."""
+    out = {}
+    for page in sorted((root / "book").glob("*.html")):
+        text = page.read_text(encoding="utf-8")
+        out[page.name] = (re.findall(r'<span class="section-number">([\d.]+) </span>', text),
+                          re.findall(r'<span class="caption-number">Exercise ([\d.]+) </span>', text))
+    return out
+
+
+def test_student_edition_numbers_as_the_instructor_edition(student: Path, instructor: Path) -> None:
+    """One numbering: chapters, sections and exercises carry the same numbers in both editions
+    (the PDF's are compared with the HTML's in tests/test_pdf.py)."""
+    s, i = _numbers(student), _numbers(instructor)
+    assert sum(len(ex) for _, ex in i.values()) >= 20
+    differ = [name for name in i if s.get(name) != i[name]]
+    assert not differ, f"numbers differ between the editions on {differ}"
 
 
 def test_probe_finds_the_solutions_in_the_instructor_edition(instructor: Path) -> None:

@@ -543,8 +543,8 @@ def _data_role(kind: str) -> Any:
 # --------------------------------------------------------------------------------------------
 
 
-def linkage_svg(theta1_deg: float = 135.0, theta4_deg: float = 60.0) -> str:
-    """Figure 1 of the paper drawn by :func:`fivebar.plotting.draw_linkage`, as SVG text."""
+def _linkage_drawing(theta1_deg: float, theta4_deg: float, fmt: str) -> bytes:
+    """Figure 1 of the paper drawn by :func:`fivebar.plotting.draw_linkage`, saved as ``fmt``."""
     import io
 
     import matplotlib as mpl
@@ -563,9 +563,15 @@ def linkage_svg(theta1_deg: float = 135.0, theta4_deg: float = 60.0) -> str:
                      labels=True, masses=True)
         ax.set_xlabel("$x$ (mm)")
         ax.set_ylabel("$y$ (mm)")
-        buf = io.StringIO()
-        fig.savefig(buf, format="svg", metadata={"Date": None})
-    svg = buf.getvalue()
+        buf = io.BytesIO()
+        fig.savefig(buf, format=fmt, metadata={"CreationDate": None} if fmt == "pdf"
+                    else {"Date": None})
+    return buf.getvalue()
+
+
+def linkage_svg(theta1_deg: float = 135.0, theta4_deg: float = 60.0) -> str:
+    """Figure 1 of the paper drawn by :func:`fivebar.plotting.draw_linkage`, as SVG text."""
+    svg = _linkage_drawing(theta1_deg, theta4_deg, "svg").decode()
     svg = svg[svg.index("<svg"):]  # inline: no XML declaration or doctype
     # scale with the column: the viewBox keeps the aspect, CSS sets the width
     svg = re.sub(r'<svg([^>]*?) width="[^"]*" height="[^"]*"', r'<svg\1', svg, count=1)
@@ -596,6 +602,14 @@ class LinkageFigure(SphinxDirective):
             raise self.error(f"linkage-figure: {exc}") from exc
         figure = nodes.figure(classes=["fivebar-linkage-figure"])
         figure += nodes.raw("", svg, format="html")
+        if self.env.app.builder.format == "latex":
+            # the PDF: the same drawing as a vector PDF image (LaTeX cannot embed SVG)
+            name = f"linkage-{angles['theta1']:g}-{angles['theta4']:g}.pdf"
+            path = Path(self.env.app.outdir) / "_fivebar" / name
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(_linkage_drawing(angles["theta1"], angles["theta4"], "pdf"))
+            uri = "/" + path.relative_to(self.env.srcdir).as_posix()  # "/": from the source folder
+            figure += nodes.image(uri=uri, alt="The five-bar linkage of Figure 1", width="90%")
         if self.content:
             caption, msgs = self.state.inline_text(" ".join(self.content), self.lineno)
             figure += nodes.caption("", "", *caption)
@@ -775,7 +789,72 @@ def _build_finished(app: Sphinx, exception: Exception | None) -> None:
                     "build reads every document again")
 
 
+# --------------------------------------------------------------------------------------------
+# 6. One citation style: "[Wang et al., 2011]" in the text and in the bibliography
+# --------------------------------------------------------------------------------------------
+
+CITATION_STYLE = "fivebar"
+
+
+def _author_year(entry) -> str:
+    """"Wang et al., 2011", "Chung and Hulbert, 1993", "Newmark, 1959" (plain text)."""
+    import codecs
+
+    import latexcodec  # noqa: F401  (registers the "ulatex" codec; a pybtex dependency)
+
+    people = entry.persons.get("author") or entry.persons.get("editor") or []
+    names = [codecs.decode(" ".join(p.last_names), "ulatex").replace("{", "").replace("}", "")
+             for p in people]
+    if not names:
+        who = entry.fields.get("organization") or entry.key
+    elif len(names) == 1:
+        who = names[0]
+    elif len(names) == 2:
+        who = f"{names[0]} and {names[1]}"
+    else:
+        who = f"{names[0]} et al."
+    return f"{who}, {entry.fields.get('year', 'n.d.')}"
+
+
+def register_citation_style() -> None:
+    """The pybtex style ``fivebar``: unsrt entries sorted by author and year, author-year labels
+    (``bibtex_default_style`` and ``bibtex_reference_style: label`` in ``_config.yml``), so that
+    a citation and its entry in the bibliography read the same, "[Wang et al., 2011]", in the
+    HTML and in the PDF.  Labels that would repeat get a letter: "1984a", "1984b"."""
+    from pybtex.plugin import find_plugin, register_plugin
+    from pybtex.style.formatting.unsrt import Style as Unsrt
+    from pybtex.style.labels import BaseLabelStyle
+
+    try:
+        find_plugin("pybtex.style.formatting", CITATION_STYLE)
+        return
+    except Exception:  # noqa: BLE001 - pybtex raises PluginNotFound
+        pass
+
+    class AuthorYearLabels(BaseLabelStyle):
+        def format_labels(self, sorted_entries):
+            entries = list(sorted_entries)
+            labels = [_author_year(e) for e in entries]
+            counts = {lab: labels.count(lab) for lab in labels}
+            seen: dict[str, int] = {}
+            for lab in labels:
+                if counts[lab] > 1:
+                    k = seen.get(lab, 0)
+                    seen[lab] = k + 1
+                    yield lab + "abcdefghijklmnopqrstuvwxyz"[k]
+                else:
+                    yield lab
+
+    class FivebarStyle(Unsrt):
+        default_label_style = "fivebar_author_year"
+        default_sorting_style = "author_year_title"
+
+    register_plugin("pybtex.style.labels", "fivebar_author_year", AuthorYearLabels)
+    register_plugin("pybtex.style.formatting", CITATION_STYLE, FivebarStyle)
+
+
 def setup(app: Sphinx) -> dict[str, Any]:
+    register_citation_style()
     app.setup_extension("sphinx.ext.autodoc")
     app.connect("config-inited", _config_inited, priority=900)
     app.connect("builder-inited", _builder_inited)

@@ -9,26 +9,26 @@ Both are the same Jupyter Book build as ``make book`` (``_config.yml``, ``_toc.y
 are errors, nitpicky), called through jupyter-book's Python API so that Sphinx settings can be
 overridden without a second configuration file:
 
-* **student**: ``hide_solutions = True`` (sphinx-exercise).  The ``{solution}`` directives
+* **student**: ``hide_solutions = True`` (sphinx-exercise) and the Sphinx tag ``student``
+  (``{only} student`` blocks, e.g. in "Run it yourself").  The ``{solution}`` directives
   then produce no node at all, so the solutions' text is absent from the HTML, not hidden.
   The sources the pages offer for download (``_sources/**.ipynb``, ``.md``) are copies of the
   chapters *with* their solutions, so the student build removes the solution blocks from
-  those copies too (:func:`strip_solutions`).
-* **pdf**: Sphinx's ``singlehtml`` builder (the whole book on one page, chapters numbered) is
-  printed to PDF by the headless Chromium of the browser test (Debian's ``/usr/bin/chromium``
-  driven by playwright), after MathJax has typeset every equation, with print CSS (each
-  chapter on a new page, no sidebars or buttons, solutions unfolded), the theme's print title
-  and table of contents on the first page (with the version and edition added), page numbers
-  in the footer and a PDF outline (bookmarks).  The PDF numbers its chapters whether or not
-  ``_toc.yml`` does (:func:`numbered_toc`).  ``--edition student`` prints the student edition
-  instead.  An up-to-date PDF (newer than every source) is not printed again.
+  those copies too (:func:`strip_solutions`).  It first writes the student archive
+  (:func:`build_student_archive`): the chapters without solutions, the data, the library and
+  its pinned requirements, which the student pages offer instead of the repository.
+* **pdf**: Sphinx's LaTeX builder (with sphinx-jupyterbook-latex and ``fivebar_latex``) and
+  XeLaTeX through latexmk (Debian's TeX Live, :data:`TEX_PACKAGES`): a title page, contents
+  with page numbers, running heads, numbered chapters as in the HTML, an index.
+  ``--edition student`` builds the student edition's PDF.  An up-to-date PDF (newer than
+  every source) is not built again.
 
 As a Sphinx extension (``sphinx.local_extensions`` in ``_config.yml``) the module adds the role
 ``{fivebar-pdf}`text```: a download link to the PDF of the edition being built
 (``_build/pdf/fivebar.pdf``, or ``fivebar-student.pdf`` when solutions are hidden) if that PDF
 exists when the page is read, and otherwise the text followed by "(not built: run ``make
-pdf``)" -- so the link is never dead.  A page with the role is re-read whenever the PDF
-appears or changes.
+pdf``)" -- so the link is never dead; likewise ``{fivebar-archive}`text``` for the student
+archive.  A page with the role is re-read whenever the file appears or changes.
 
 Every build reads the notebooks' outputs from the execution cache of ``make book``
 (``_build/.jupyter_cache``): nothing is re-executed if the HTML book is up to date.  Each
@@ -39,14 +39,12 @@ force each other to re-read every page.
 from __future__ import annotations
 
 import argparse
-import functools
-import http.server
 import json
 import os
 import re
 import shutil
+import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -55,34 +53,10 @@ import yaml
 ROOT = Path(__file__).resolve().parents[2]
 BUILD = ROOT / "_build"
 CACHE = BUILD / ".jupyter_cache"  # shared with `make book`
-CHROMIUM = os.environ.get("FIVEBAR_CHROMIUM", "/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--disable-quic",
-]
 EDITIONS = ("instructor", "student")
 PDF_NAME = "fivebar.pdf"
-#: Print scale: the HTML's 16 px body text at 0.8 prints near 10 pt on A4.
-SCALE = float(os.environ.get("FIVEBAR_PDF_SCALE", "0.8"))
-#: A PDF outline (bookmarks) from the headings.  Chromium makes it only for a tagged
-#: (accessible) PDF, which is 2.4 times larger (14.7 MB against 6.1 MB for the book of
-#: 2026-11-30); FIVEBAR_PDF_OUTLINE=0 prints the small untagged PDF without bookmarks
-#: (tests/test_pdf.py then fails its outline test).
-OUTLINE = os.environ.get("FIVEBAR_PDF_OUTLINE", "1") == "1"
-#: The single page printed.  Sphinx's singlehtml writes the whole book into the toc's root
-#: document (``book/index.html``) but with links relative to the output folder (``_static/``,
-#: ``_images/``), so the page is copied there under this name before printing.
-PRINT_PAGE = "fivebar.html"
-
-
 def _sphinx_build(builder: str, outdir: Path, doctreedir: Path, toc: Path,
-                  overrides: dict) -> None:
+                  overrides: dict, tags: list[str] | None = None) -> None:
     """One strict jupyter-book build (as ``make book``: -W -n --keep-going)."""
     from jupyter_book.sphinx import build_sphinx
 
@@ -104,6 +78,7 @@ def _sphinx_build(builder: str, outdir: Path, doctreedir: Path, toc: Path,
         builder=builder,
         warningiserror=True,
         keep_going=True,
+        tags=tags or [],
     )
     if result != 0:
         raise SystemExit(f"the {builder} build into {outdir} failed (exit {result}); "
@@ -200,211 +175,90 @@ def strip_sources(html: Path) -> int:
     return n
 
 
+#: The student archive: what a student needs to run the chapters, without the solutions.
+STUDENT_ARCHIVE = BUILD / "student" / "fivebar-student.zip"
+#: Files of the repository in the archive besides the chapters (``lib/`` and ``data/`` whole).
+ARCHIVE_FILES = ("pyproject.toml", "requirements-lock.txt", "LICENSE", "CITATION.cff")
+ARCHIVE_README = """fivebar, student edition: the chapters as notebooks, without the exercises' solutions.
+
+Set up once (Python 3.11; nothing outside this folder is changed):
+
+    python3 -m venv .venv
+    .venv/bin/python -m pip install -r requirements-lock.txt
+    .venv/bin/python -m pip install --no-deps -e .
+
+Then open a chapter:
+
+    .venv/bin/jupyter lab book/05_modes.ipynb
+
+book/   the chapters (notebooks, with their stored outputs)
+data/   the parameter file (every number of the paper, every assumption) and reference data
+lib/    the library fivebar that the chapters import
+"""
+
+
+def chapter_notebooks() -> list[Path]:
+    """The numbered chapters' notebooks (``book/NN_name.ipynb``)."""
+    return sorted(p for p in (ROOT / "book").glob("[0-9][0-9]_*.ipynb"))
+
+
+def build_student_archive(path: Path = STUDENT_ARCHIVE) -> tuple[Path, int]:
+    """A zip of the chapters (solutions removed), the data, the library and its pinned
+    requirements; return its path and the number of solutions removed."""
+    import zipfile
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    n = 0
+    with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr("fivebar-student/README.txt", ARCHIVE_README)
+        for nb_path in chapter_notebooks():
+            nb = json.loads(nb_path.read_text(encoding="utf-8"))
+            n += strip_notebook_solutions(nb)
+            zf.writestr(f"fivebar-student/book/{nb_path.name}",
+                        json.dumps(nb, indent=1, ensure_ascii=False) + "\n")
+        files = [ROOT / f for f in ARCHIVE_FILES]
+        for folder in ("data", "lib"):
+            files += [p for p in sorted((ROOT / folder).rglob("*"))
+                      if p.is_file() and "__pycache__" not in p.parts
+                      and not any(part.endswith(".egg-info") for part in p.parts)]
+        for f in files:
+            if f.is_file():  # data/ links into lib/fivebar/data: stored as copies
+                zf.write(f.resolve(), f"fivebar-student/{f.relative_to(ROOT).as_posix()}")
+    tmp.replace(path)
+    return path, n
+
+
 def build_student(out: Path = BUILD / "student") -> Path:
-    """The student edition (no solutions) in ``_build/student/html``."""
+    """The student edition (no solutions) in ``_build/student/html``, and the student archive
+    (made first, so that the pages can offer it)."""
+    archive, k = build_student_archive()
+    print(f"[fivebar_build] {archive.relative_to(ROOT)}: {k} solutions removed from "
+          f"{len(chapter_notebooks())} chapters")
     html = out / "html"
     stamp = html / ".fivebar-build-ok"
     stamp.unlink(missing_ok=True)
     _sphinx_build("html", html, out / ".doctrees", ROOT / "_toc.yml",
-                  _edition_overrides("student"))
+                  _edition_overrides("student"), tags=["student"])
     n = strip_sources(html)
     print(f"[fivebar_build] removed {n} solutions from the downloadable sources")
     stamp.touch()
     return html
 
 
-def numbered_toc(src: Path, dst: Path) -> Path:
-    """A copy of the table of contents with every part numbered (for the PDF).
-
-    The printed book numbers its chapters whether or not the HTML book does; the numbering
-    runs on across parts (``use_multitoc_numbering`` in ``_config.yml``).
-    """
-    toc = yaml.safe_load(src.read_text())
-    for part in toc.get("parts", []):
-        part.setdefault("numbered", True)
-    text = yaml.safe_dump(toc, sort_keys=False)
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    if not dst.is_file() or dst.read_text() != text:  # keep mtime: no needless re-read
-        dst.write_text(text)
-    return dst
-
-
 # --------------------------------------------------------------------------------------------
-# Printing
+# The PDF: Sphinx's LaTeX builder and XeLaTeX
 # --------------------------------------------------------------------------------------------
 
-#: What the printed page hides and how it breaks.  The theme's print styles already hide the
-#: sidebars and buttons and show its own title and table of contents (``#jb-print-docs-body``);
-#: Sphinx's singlehtml puts each page of the book in a ``div.toctree-wrapper > section``, and
-#: each starts on a new sheet.
-PRINT_CSS = """
-@page { size: A4; }
-html, body { background: white !important; }
-.bd-header, .bd-header-announcement, .bd-sidebar-primary, .bd-sidebar-secondary,
-.bd-header-article, .prev-next-area, .prev-next-footer, footer, .bd-footer,
-.bd-footer-content, .bd-footer-article, #pst-back-to-top, .theme-switch-button,
-.search-button, .copybtn, .skip-link, .headerlink, button.toggle-button,
-label.overlay { display: none !important; }
-.bd-container, .bd-container__inner, .bd-page-width, .bd-main, .bd-content,
-.bd-article-container, .bd-article { max-width: none !important; width: 100% !important;
-  margin: 0 !important; padding: 0 !important; display: block !important; }
-#jb-print-docs-body { break-after: page; }
-.fivebar-print-subtitle { font-size: 1.2em; margin: 0.5em 0 2em 0; color: #333; }
-.fivebar-print-contents { list-style: none; padding-left: 0; line-height: 1.6; }
-.toctree-wrapper > section { break-before: page; }
-h1, h2, h3, h4 { break-after: avoid; }
-figure, img, .cell_output img, mjx-container[display="true"] { break-inside: avoid; }
-img { max-width: 100% !important; }
-pre { white-space: pre-wrap !important; word-break: break-word; }
-.cell_output pre { font-size: 0.8em; }
-details > *, .toggle-hidden, .toggle-details__container { display: block !important; }
-"""
-
-#: Runs in the page before printing: unfold every dropdown (solutions, hidden code), put the
-#: version and edition under the title.  Returns the chapter titles as printed.
-PREPARE_JS = r"""
-(subtitle) => {
-  document.querySelectorAll('details').forEach(d => { d.open = true; });
-  document.querySelectorAll('.toggle-hidden').forEach(e => e.classList.remove('toggle-hidden'));
-  document.querySelectorAll('.dropdown').forEach(e => e.classList.remove('dropdown'));
-  const title = document.querySelector('#jb-print-docs-body h1');
-  if (title) {
-    const p = document.createElement('p');
-    p.className = 'fivebar-print-subtitle';
-    p.textContent = subtitle;
-    title.after(p);
-  }
-  const heads = Array.from(document.querySelectorAll('.toctree-wrapper > section > h2'));
-  const titles = heads.map(h => h.textContent.replace(/#\s*$/, '').trim());
-  // The contents page: the chapters as printed, each a link to its section (the theme's
-  // print table of contents lists the first page's own sections, not the book's chapters).
-  const toc = document.querySelector('#jb-print-toc');
-  if (toc) {
-    toc.innerHTML = '';
-    const h = document.createElement('h2');
-    h.textContent = 'Contents';
-    toc.appendChild(h);
-    const ul = document.createElement('ul');
-    ul.className = 'fivebar-print-contents';
-    heads.forEach((head, i) => {
-      const li = document.createElement('li');
-      const a = document.createElement('a');
-      const sec = head.closest('section');
-      a.href = '#' + (sec && sec.id ? sec.id : '');
-      a.textContent = titles[i];
-      li.appendChild(a);
-      ul.appendChild(li);
-    });
-    toc.appendChild(ul);
-  }
-  return titles;
-}
-"""
-
-#: Resolves when MathJax has typeset the whole page; returns what it could not typeset.
-MATHJAX_JS = r"""
-async () => {
-  if (!(window.MathJax && MathJax.startup && MathJax.startup.promise)) return {missing: true};
-  await MathJax.startup.promise;
-  if (MathJax.typesetPromise) await MathJax.typesetPromise();
-  const untypeset = Array.from(document.querySelectorAll('.math'))
-      .filter(el => !el.querySelector('mjx-container')).length;
-  const errors = document.querySelectorAll('mjx-merror, [data-mjx-error]').length;
-  return {missing: false, typeset: document.querySelectorAll('mjx-container').length,
-          untypeset, errors};
-}
-"""
+#: What the PDF build needs besides the project's environment (Debian's TeX Live packages).
+TEX_TOOLS = ("xelatex", "latexmk", "makeindex")
+TEX_PACKAGES = ("texlive-latex-recommended", "texlive-latex-extra", "texlive-fonts-recommended",
+                "texlive-xetex", "latexmk", "fonts-freefont-otf", "tex-gyre")
 
 
-class _QuietHandler(http.server.SimpleHTTPRequestHandler):
-    def log_message(self, *args) -> None:  # noqa: D401 - silence the access log
-        pass
-
-
-def _serve(folder: Path) -> tuple[http.server.ThreadingHTTPServer, str]:
-    handler = functools.partial(_QuietHandler, directory=str(folder))
-    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
-    threading.Thread(target=server.serve_forever, daemon=True).start()
-    return server, f"http://127.0.0.1:{server.server_address[1]}/"
-
-
-def _version() -> str:
-    for line in (ROOT / "CITATION.cff").read_text().splitlines():
-        if line.startswith("version:"):
-            return line.split(":", 1)[1].strip().strip('"')
-    return "unknown"
-
-
-def print_pdf(html_dir: Path, pdf: Path, edition: str) -> dict:
-    """Print ``html_dir/index.html`` (a singlehtml build) to ``pdf``; return a summary."""
-    from playwright.sync_api import sync_playwright
-
-    if not Path(CHROMIUM).is_file():
-        raise SystemExit(f"Chromium not found at {CHROMIUM}: install Debian's 'chromium' "
-                         "or set FIVEBAR_CHROMIUM to a Chromium binary")
-    config = yaml.safe_load((ROOT / "_config.yml").read_text())
-    subtitle = f"Version {_version()} \u00b7 {edition} edition \u00b7 {config.get('author', '')}"
-    server, url = _serve(html_dir)
-    try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS,
-                                        headless=True)
-            try:
-                page = browser.new_page()
-                remote: list[str] = []
-                page.on("request", lambda r: remote.append(r.url)
-                        if not r.url.startswith(url) and not r.url.startswith("data:") else None)
-                t0 = time.perf_counter()
-                page.goto(url + PRINT_PAGE, wait_until="networkidle", timeout=300_000)
-                t1 = time.perf_counter()
-                math = page.evaluate(MATHJAX_JS)
-                t2 = time.perf_counter()
-                if math.get("missing"):
-                    raise SystemExit("MathJax did not load in the single-page book")
-                if math["untypeset"] or math["errors"]:
-                    raise SystemExit(f"MathJax left {math['untypeset']} equations untypeset and "
-                                     f"{math['errors']} with TeX errors")
-                page.emulate_media(media="print")
-                page.add_style_tag(content=PRINT_CSS)
-                titles = page.evaluate(PREPARE_JS, subtitle)
-                # Images in what was folded may be lazy: load and decode every one.
-                broken = page.evaluate("""async () => {
-                  const imgs = Array.from(document.images);
-                  imgs.forEach(i => { i.loading = 'eager'; });
-                  await Promise.all(imgs.map(i => i.decode().catch(() => null)));
-                  return imgs.filter(i => !i.complete || i.naturalWidth === 0)
-                             .map(i => i.getAttribute('src'));
-                }""")
-                if broken:
-                    raise SystemExit(f"images that do not load in the single-page book: "
-                                     f"{broken[:5]}")
-                pdf.parent.mkdir(parents=True, exist_ok=True)
-                page.pdf(
-                    path=str(pdf),
-                    format="A4",
-                    print_background=True,
-                    display_header_footer=True,
-                    header_template="<span></span>",
-                    footer_template=(
-                        '<div style="font-size:8px;width:100%;text-align:center;color:#555">'
-                        '<span class="pageNumber"></span> / <span class="totalPages"></span>'
-                        "</div>"),
-                    margin={"top": "15mm", "bottom": "15mm", "left": "14mm", "right": "14mm"},
-                    scale=SCALE,
-                    outline=OUTLINE,
-                    tagged=OUTLINE,
-                )
-                t3 = time.perf_counter()
-            finally:
-                browser.close()
-    finally:
-        server.shutdown()
-    if remote:
-        raise SystemExit(f"the single-page book requested resources from other hosts: "
-                         f"{sorted(set(remote))[:5]}")
-    return {"pdf": str(pdf), "bytes": pdf.stat().st_size, "chapters": titles,
-            "equations_typeset": math["typeset"],
-            "seconds": {"load": t1 - t0, "mathjax": t2 - t1, "print": t3 - t2}}
+def missing_tex_tools() -> list[str]:
+    """The TeX programs the PDF needs that are not on the PATH."""
+    return [tool for tool in TEX_TOOLS if shutil.which(tool) is None]
 
 
 def _sources() -> list[Path]:
@@ -417,35 +271,101 @@ def _sources() -> list[Path]:
     return out
 
 
+def _version() -> str:
+    for line in (ROOT / "CITATION.cff").read_text().splitlines():
+        if line.startswith("version:"):
+            return line.split(":", 1)[1].strip().strip('"')
+    return "unknown"
+
+
+def _title_page(edition: str) -> str:
+    """The LaTeX title page: title, author, version and edition (``latex_elements['maketitle']``)."""
+    config = yaml.safe_load((ROOT / "_config.yml").read_text())
+    title, _, subtitle = str(config["title"]).partition(": ")
+    esc = lambda t: t.replace("&", r"\&").replace("%", r"\%").replace("_", r"\_")  # noqa: E731
+    extra = ("Student edition: the exercises without their solutions" if edition == "student"
+             else "Instructor edition: the exercises with their solutions")
+    return r"""
+\begin{titlepage}
+\centering
+\vspace*{0.18\textheight}
+{\Huge\bfseries %s\par}
+\vspace{0.8em}
+{\LARGE %s\par}
+\vspace{3em}
+{\large Reproducing, checking and extending R.-G. Wang, G.-W. Cai and X.-R. Zhou (2011),\par
+\emph{Mathematical Problems in Engineering}, Article ID 254547\par}
+\vfill
+{\large %s\par}
+\vspace{1em}
+{\large Version %s\par}
+\vspace{0.5em}
+{\normalsize %s\par}
+\vspace{2em}
+{\small Code: BSD-3-Clause. Text and figures: CC BY 4.0.\par}
+\end{titlepage}
+""" % (esc(title), esc(subtitle or ""), esc(str(config.get("author", ""))), _version(), extra)
+
+
+def build_latex(edition: str = "instructor") -> Path:
+    """The LaTeX sources of the book (``_build/pdf/latex[-student]/fivebar.tex``)."""
+    suffix = "" if edition == "instructor" else f"-{edition}"
+    out = BUILD / "pdf" / f"latex{suffix}"
+    overrides = {**_edition_overrides(edition),
+                 "latex_elements": {"maketitle": _title_page(edition),
+                                    "papersize": "a4paper", "pointsize": "10pt",
+                                    "releasename": "Version", "fncychap": ""}}
+    _sphinx_build("latex", out, BUILD / "pdf" / f".doctrees-latex{suffix}", ROOT / "_toc.yml",
+                  overrides, tags=[edition] if edition == "student" else None)
+    return out / "fivebar.tex"
+
+
+def run_latex(tex: Path) -> Path:
+    """XeLaTeX (through latexmk and the Makefile Sphinx writes) on ``tex``; return the PDF."""
+    missing = missing_tex_tools()
+    if missing:
+        raise SystemExit(f"the PDF needs {', '.join(missing)} (Debian: apt-get install "
+                         f"{' '.join(TEX_PACKAGES)}); not found on the PATH")
+    log = tex.with_suffix(".log")
+    run = subprocess.run(["make", "-C", str(tex.parent), "all-pdf",
+                          "LATEXMKOPTS=-interaction=nonstopmode -halt-on-error -silent"],
+                         capture_output=True, text=True)
+    pdf = tex.with_suffix(".pdf")
+    if run.returncode != 0 or not pdf.is_file():
+        tail = "\n".join((run.stdout + run.stderr).splitlines()[-30:])
+        if log.is_file():
+            errors = [line for line in log.read_text(errors="replace").splitlines()
+                      if line.startswith("!")][:10]
+            tail += "\nLaTeX errors:\n" + "\n".join(errors)
+        raise SystemExit(f"XeLaTeX failed on {tex} (exit {run.returncode}):\n{tail}")
+    return pdf
+
+
 def build_pdf(edition: str = "instructor", force: bool = False) -> Path:
     """``_build/pdf/fivebar.pdf`` (``fivebar-student.pdf`` for the student edition).
 
     Nothing is done if the PDF is newer than every source of the book (``force`` rebuilds).
     """
-    overrides = _edition_overrides(edition)
+    _edition_overrides(edition)
     pdf = pdf_path(edition)
     if not force and pdf.is_file():
         built = pdf.stat().st_mtime
         if all(p.stat().st_mtime <= built for p in _sources()):
             print(f"[fivebar_build] {pdf.relative_to(ROOT)} is up to date")
             return pdf
-    out = BUILD / "pdf"
-    suffix = "" if edition == "instructor" else f"-{edition}"
-    html = out / f"singlehtml{suffix}"
-    toc = numbered_toc(ROOT / "_toc.yml", out / f"_toc{suffix}.yml")
+    missing = missing_tex_tools()
+    if missing:  # fail before the Sphinx build, not after it
+        raise SystemExit(f"the PDF needs {', '.join(missing)} (Debian: apt-get install "
+                         f"{' '.join(TEX_PACKAGES)}); not found on the PATH")
     t0 = time.perf_counter()
-    # the copy of the last build is not a page of this one (the build checks every page's links)
-    (html / PRINT_PAGE).unlink(missing_ok=True)
-    _sphinx_build("singlehtml", html, out / f".doctrees{suffix}", toc, overrides)
-    root = yaml.safe_load(toc.read_text())["root"]
-    shutil.copyfile(html / f"{root}.html", html / PRINT_PAGE)
+    tex = build_latex(edition)
     t1 = time.perf_counter()
-    summary = print_pdf(html, pdf, edition)
+    made = run_latex(tex)
     t2 = time.perf_counter()
-    print(f"[fivebar_build] {pdf.relative_to(ROOT)}: {summary['bytes'] / 1e6:.1f} MB, "
-          f"{len(summary['chapters'])} chapters, {summary['equations_typeset']} equations; "
-          f"singlehtml {t1 - t0:.0f} s, printing {t2 - t1:.0f} s "
-          f"({', '.join(f'{k} {v:.0f} s' for k, v in summary['seconds'].items())})")
+    pdf.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(made, pdf)
+    print(f"[fivebar_build] {pdf.relative_to(ROOT)}: {pdf.stat().st_size / 1e6:.1f} MB; "
+          f"Sphinx LaTeX build {t1 - t0:.0f} s, XeLaTeX {t2 - t1:.0f} s")
     return pdf
 
 
@@ -459,28 +379,38 @@ def pdf_path(edition: str) -> Path:
     return BUILD / "pdf" / (PDF_NAME if edition == "instructor" else f"fivebar-{edition}.pdf")
 
 
-def _pdf_role(name, rawtext, text, lineno, inliner, options=None, content=None):
+def _download(env, rawtext: str, text: str, target: Path, how: str):
+    """A download link to ``target`` if it exists when the page is read, else the text and how
+    to build it; the page depends on the file (read again when it appears or changes)."""
     from docutils import nodes
     from sphinx import addnodes
 
-    env = inliner.document.settings.env
-    edition = "student" if env.config.hide_solutions else "instructor"
-    pdf = pdf_path(edition)
-    rel = "/" + pdf.relative_to(ROOT).as_posix()  # "/..." is relative to the source folder
-    if pdf.is_file() and env.app.builder.name != "singlehtml":
+    rel = "/" + target.relative_to(ROOT).as_posix()  # "/..." is relative to the source folder
+    if target.is_file() and env.app.builder.format == "html":
         node = addnodes.download_reference(rawtext, "", refdoc=env.docname, refdomain="",
                                            reftype="download", refexplicit=True,
                                            reftarget=rel)
         node += nodes.literal(rawtext, text, classes=["xref", "download"])
-        size = f" ({pdf.stat().st_size / 1e6:.0f} MB)"
-        return [node, nodes.Text(size)], []
-    # No PDF (or the PDF itself is being made): plain text, and a dependency on the missing
-    # file so that the page is read again once the PDF exists.
-    env.note_dependency(pdf.relative_to(ROOT).as_posix())
-    if env.app.builder.name == "singlehtml":
-        return [nodes.Text(text)], []
-    return [nodes.Text(text), nodes.Text(" (not built: run "), nodes.literal("", "make pdf"),
+        size = target.stat().st_size / 1e6
+        return [node, nodes.Text(f" ({size:.0f} MB)" if size >= 1 else f" ({size:.1f} MB)")], []
+    env.note_dependency(target.relative_to(ROOT).as_posix())
+    if env.app.builder.format != "html":  # in the PDF: no link (to itself, or to a build)
+        return [nodes.Text(f"{text} (this document)" if target.suffix == ".pdf" else text)], []
+    return [nodes.Text(text), nodes.Text(" (not built: run "), nodes.literal("", how),
             nodes.Text(")")], []
+
+
+def _pdf_role(name, rawtext, text, lineno, inliner, options=None, content=None):
+    env = inliner.document.settings.env
+    edition = "student" if env.config.hide_solutions else "instructor"
+    how = "make pdf" if edition == "instructor" else "make pdf EDITION=student"
+    return _download(env, rawtext, text, pdf_path(edition), how)
+
+
+def _archive_role(name, rawtext, text, lineno, inliner, options=None, content=None):
+    """``{fivebar-archive}`text```: the student archive (built by ``make book-student``)."""
+    env = inliner.document.settings.env
+    return _download(env, rawtext, text, STUDENT_ARCHIVE, "make book-student")
 
 
 def _drop_stale_pdf_copies(app, env) -> None:
@@ -492,8 +422,7 @@ def _drop_stale_pdf_copies(app, env) -> None:
     """
     if app.builder.format != "html":
         return
-    for edition in EDITIONS:
-        src = pdf_path(edition)
+    for src in [*(pdf_path(e) for e in EDITIONS), STUDENT_ARCHIVE]:
         for old in Path(app.outdir, "_downloads").glob(f"*/{src.name}"):
             if not src.is_file() or old.stat().st_mtime < src.stat().st_mtime:
                 old.unlink()
@@ -502,14 +431,8 @@ def _drop_stale_pdf_copies(app, env) -> None:
 def setup(app):
     """Sphinx entry point: the ``{fivebar-pdf}`` role."""
     app.add_role("fivebar-pdf", _pdf_role)
+    app.add_role("fivebar-archive", _archive_role)
     app.connect("env-updated", _drop_stale_pdf_copies)
-    # myst-nb writes folded code cells (tag hide-input) for the html builder only; the
-    # singlehtml build of the PDF needs the same writer (the print CSS unfolds them).
-    from myst_nb.sphinx_ import HideCodeCellNode, depart_HideCellInput, visit_HideCellInput
-
-    app.add_node(HideCodeCellNode, override=True,
-                 html=(visit_HideCellInput, depart_HideCellInput),
-                 singlehtml=(visit_HideCellInput, depart_HideCellInput))
     return {"version": "1.0", "parallel_read_safe": True, "parallel_write_safe": True}
 
 
