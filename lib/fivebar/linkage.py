@@ -239,6 +239,11 @@ class Linkage:
         return {j.name: j.mass for j in self.joints if j.kind == "pin"}
 
     @property
+    def couplers(self) -> tuple[str, ...]:
+        """The links between two pins (for the five-bar L2 and L3, whose midpoints Figure 6 shows)."""
+        return tuple(k.name for k in self.links if _between_pins(self, k))
+
+    @property
     def default_mesh(self) -> tuple[int, ...]:
         """Elements per link of the description (chain order)."""
         return tuple(k.elements for k in self.links)

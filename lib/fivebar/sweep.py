@@ -45,7 +45,6 @@ from .steady import SteadyState, shooting
 __all__ = ["SweepError", "clear_cache", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
 
 _CACHE: dict[tuple, dict[str, float]] = {}
-_LINKS = ("L1", "L2", "L3", "L4")
 
 
 class SweepError(FivebarError, ValueError):
@@ -151,9 +150,6 @@ def speed_sweep(
     if x.ndim != 1 or x.size == 0 or not np.all(np.isfinite(x)) or np.any(x <= 0):
         raise SweepError(f"speeds_rpm = {speeds_rpm!r} is not allowed: give positive crank speeds (r/min)")
     links = tuple(links)
-    bad = [k for k in links if k not in _LINKS]
-    if bad or not links:
-        raise SweepError(f"links = {links!r} is not allowed: use some of {list(_LINKS)}")
     if direction not in ("transverse", "longitudinal", "chord"):
         raise SweepError(f"direction = {direction!r} is not allowed: use 'transverse', 'longitudinal' or 'chord'")
     if executor is not None and not callable(getattr(executor, "submit", None)):
@@ -162,6 +158,10 @@ def speed_sweep(
         nonlinear = False
     base = as_setup(params, steps_per_period=steps_per_period, scheme=scheme, nonlinear=nonlinear, motors=motors)
     params = base.params
+    names = params.linkage.link_names
+    bad = [k for k in links if k not in names]
+    if bad or not links:
+        raise SweepError(f"links = {links!r} is not allowed: use some of {list(names)}")
     opts = (links, direction, base.steps_per_period, base.scheme, base.nonlinear, base.motors,
             base.elements_per_link)
     key = lambda s: (params, float(s), opts)  # noqa: E731
