@@ -20,11 +20,14 @@ from typing import Any
 from .errors import FivebarError, ParameterError
 from .linkage import Linkage, Material, Section, linkage_from_toml
 
-__all__ = ["Motor", "Params", "ParameterError", "load_params", "DEFAULT_PARAMS_PATH"]
+__all__ = ["Motor", "Params", "ParameterError", "load_params", "DEFAULT_PARAMS_PATH", "FOURBAR_PARAMS_PATH"]
 
 #: The parameter file shipped with the package (``fivebar/data/wang2011.toml``, package data
 #: read through ``importlib.resources``; ``data/wang2011.toml`` of the repository links to it).
 DEFAULT_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "wang2011.toml"))
+#: A four-bar crank-rocker's description, to layer over the defaults:
+#: ``load_params([DEFAULT_PARAMS_PATH, FOURBAR_PARAMS_PATH])`` (``fivebar/data/fourbar.toml``).
+FOURBAR_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "fourbar.toml"))
 
 
 # --- the schema: dotted TOML key -> (rule, unit) ---------------------------------------------
