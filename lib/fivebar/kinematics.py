@@ -30,7 +30,7 @@ anticlockwise from the x axis; couplers BC (:math:`L_2`) and CD (:math:`L_3`) pi
 has no dead point: :math:`50 \le |BD| \le 750` mm against :math:`L_2 + L_3 = 800` mm.
 
 Crank angles are passed in the order of the description's cranks
-(:attr:`fivebar.linkage.Linkage.cranks`): ``positions(params, theta1, theta4)`` for the
+(``Linkage.cranks``): ``positions(params, theta1, theta4)`` for the
 five-bar, ``positions(params, theta)`` for a four-bar.
 
 The rigid motion is the "given trajectory" of the kineto-elastodynamic model: the elastic

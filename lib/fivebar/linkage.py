@@ -115,7 +115,11 @@ class Drive:
     :math:`\theta(t) = \theta_0 + r\Omega t + \sum_k (a_k\cos k\Omega t + b_k\sin k\Omega t)`
     with ``fourier = ((a1, b1), (a2, b2), ...)``, or, when ``function`` is given,
     ``function(t, Omega) -> (theta, omega, alpha)`` (arrays shaped like ``t``; it should be
-    periodic in :math:`2\pi/\Omega` up to whole turns for a periodic motion).
+    periodic in :math:`2\pi/\Omega` up to whole turns for a periodic motion, and a function
+    of :math:`\Omega t` only, as the Fourier law is: the sampled matrices of
+    :class:`fivebar.dynamics.LinkageDynamics` are shared between speeds).  A function cannot
+    be written in TOML: set it with ``dataclasses.replace`` on the linkage and the parameter
+    set (``Params.replace`` rebuilds the linkage from the file's table and drops it).
     """
 
     theta0: float = 0.0

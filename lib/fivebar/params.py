@@ -20,7 +20,7 @@ from typing import Any
 from .errors import FivebarError, ParameterError
 from .linkage import Linkage, Material, Section, linkage_from_toml
 
-__all__ = ["Motor", "Params", "ParameterError", "load_params", "DEFAULT_PARAMS_PATH", "FOURBAR_PARAMS_PATH"]
+__all__ = ["Motor", "Params", "load_params", "DEFAULT_PARAMS_PATH", "FOURBAR_PARAMS_PATH"]
 
 #: The parameter file shipped with the package (``fivebar/data/wang2011.toml``, package data
 #: read through ``importlib.resources``; ``data/wang2011.toml`` of the repository links to it).
@@ -270,12 +270,16 @@ class Params:
         """Return a copy with some entries changed, validated like the file.
 
         Keys are dotted TOML keys (``**{"motor1.m0": 2.0}``) or bare names that are unique
-        (``crank_speed_rpm=120``, ``L1=0.25``).
+        (``crank_speed_rpm=120``, ``L1=0.25``); ``linkage=`` takes a whole description (the
+        ``[linkage]`` table of a file, as a dict).
 
         >>> p = load_params().replace(crank_speed_rpm=120)
         """
         values = dict(self.values)
         for key, value in changes.items():
+            if key == "linkage":  # a whole description, as the [linkage] table of a file
+                values["linkage"] = value
+                continue
             values[_resolve_key(key, values)] = value
         return _build(values, dict(self.meta))
 
