@@ -366,25 +366,6 @@ class Model:
         raise KeyError(f"no DOF labelled {label!r}; labels are {[d.label for d in self.dofs]}")
 
 
-def _reversed(link: str) -> bool:
-    """Whether the chain direction of a link is opposite to its kinematic direction."""
-    (_, a, b), = [c for c in CHAIN if c[0] == link]
-    return LINKS[link] != (a, b)
-
-
-def _node_location(node: str, epl: tuple[int, ...]) -> tuple[str, float]:
-    """(link, fraction along the link's kinematic direction) of a translating node."""
-    if "[" in node:
-        link, j = node[:-1].split("[")
-        n = epl[int(link[1]) - 1]
-        s = int(j) / n
-    else:
-        link, s = {"B": ("L1", 1.0), "C": ("L2", 1.0), "D": ("L3", 1.0)}[node]
-    if _reversed(link):
-        s = 1.0 - s
-    return link, s
-
-
 def build_model(
     params: Params,
     elements_per_link: tuple[int, ...] | None = None,
