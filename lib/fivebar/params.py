@@ -189,8 +189,9 @@ class Params:
     each dotted key (``"geometry.L1"``) to its provenance from the TOML file (printed value
     and source, or the assumption's reason and alternative).  ``linkage`` is the linkage
     description (:class:`fivebar.linkage.Linkage`) of the ``[linkage]`` section.  The entries
-    of ``[geometry]`` and ``[masses]`` are attributes too (``params.L2``, ``params.m01`` for
-    the paper's file), and so is each link's length by the link's name.
+    of ``[geometry]`` and ``[masses]`` that the description refers to are attributes too
+    (``params.L5``, ``params.m01`` for the paper's file), and so is each link's length by the
+    link's name (``params.L2``).
     """
 
     linkage: Linkage
@@ -224,18 +225,23 @@ class Params:
     yield_stress: float
     values: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
     meta: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, compare=False, repr=False)
+    #: the flat entries the linkage description refers to (its numbers by dotted key)
+    references: frozenset[str] = field(default=frozenset(), compare=False, repr=False)
 
     def __getattr__(self, name: str) -> Any:
         # the free entries of [geometry] and [masses] and the links' lengths, read-only
-        if name.startswith("_") or name in ("values", "meta", "linkage"):
+        if name.startswith("_") or name in ("values", "meta", "linkage", "references"):
             raise AttributeError(name)
         for link in self.linkage.links:
             if link.name == name:
                 return link.length
         for section in _OPEN:
-            if f"{section}.{name}" in self.values:
+            if f"{section}.{name}" in self.references:
                 return self.values[f"{section}.{name}"]
-        raise AttributeError(f"'Params' object has no attribute {name!r}")
+        raise AttributeError(
+            f"'Params' object has no attribute {name!r} (the linkage {self.linkage.name!r} has the links "
+            f"{list(self.linkage.link_names)})"
+        )
 
     # --- derived quantities ------------------------------------------------------------------
     @property
@@ -360,8 +366,11 @@ def _build(values: Mapping[str, Any], meta: Mapping[str, Mapping[str, Any]]) -> 
     top = {k: v for k, v in top.items() if k in own}
     top.update({k: v for k, v in a.items() if k in own})
 
+    used: set[str] = set()
+
     def resolve(ref: str) -> Any:
         key = _resolve_key(ref, checked)
+        used.add(key)
         if key not in checked:
             raise ParameterError(f"{key} is missing from the parameter file, and the linkage refers to it")
         return checked[key]
@@ -373,7 +382,8 @@ def _build(values: Mapping[str, Any], meta: Mapping[str, Mapping[str, Any]]) -> 
         motors=("motor1", "motor2"),
     )
     checked["linkage"] = values["linkage"]
-    return Params(**top, linkage=linkage, motor1=motor(1), motor2=motor(2), values=checked, meta=dict(meta))
+    return Params(**top, linkage=linkage, motor1=motor(1), motor2=motor(2), values=checked, meta=dict(meta),
+                  references=frozenset(used))
 
 
 def load_params(
