@@ -40,7 +40,7 @@ def test_every_pair_of_crank_angles_closes():
 
 def test_geometry_that_cannot_close_names_angles_and_BD():
     q = P.replace(L2=0.15, L3=0.15)
-    with pytest.raises(GeometryError, match=r"theta1 = 0 deg, theta4 = 0 deg: \|BD\| = 350 mm"):
+    with pytest.raises(GeometryError, match=r"crank angles A = 0 deg, E = 0 deg: \|BD\| = 350 mm"):
         positions(q, 0.0, 0.0)
     with pytest.raises(ValueError, match="assembly mode 0"):
         positions(P, 0.0, 0.0, mode=0)

@@ -25,7 +25,7 @@ _FACADE = {
     "GeneralizedAlpha": "newmark", "HHT": "newmark", "Newmark": "newmark",
     "NewtonConvergenceError": "newmark", "UnstableParametersError": "newmark",
     "integrate": "newmark",
-    "DEFAULT_PARAMS_PATH": "params", "Motor": "params", "ParameterError": "params",
+    "DEFAULT_PARAMS_PATH": "params", "FOURBAR_PARAMS_PATH": "params", "Motor": "params", "ParameterError": "params",
     "Params": "params", "load_params": "params",
     "campbell_diagram": "resonance", "resonance_table": "resonance",
     "SteadyState": "steady", "SteadyStateError": "steady", "steady_state": "steady",
@@ -50,6 +50,7 @@ def __dir__():
 
 __all__ = [
     "DEFAULT_PARAMS_PATH",
+    "FOURBAR_PARAMS_PATH",
     "FivebarError",
     "PAPER_SCHEME",
     "Setup",

@@ -10,17 +10,19 @@ The paper assembles
     \mathbf B_i^\top \mathbf R_i^\top \overline{\mathbf K}_3 \mathbf R_i \mathbf B_i
 
 (section 2, after (2.8)) with hand-typed Boolean matrices :math:`\mathbf B_i` (A.12) and
-rotations :math:`\mathbf R_i` (A.11).  Here the B matrices are *derived* from a topology: the
-chain A-B-C-D-E of links L1 (A to B), L2 (B to C), L3 (C to D), L4 (D to E), each cut into a
-chosen number of elements (the paper's 1-2-2-1 by default), with these joints:
+rotations :math:`\mathbf R_i` (A.11).  Here the B matrices are *derived* from the linkage
+description (:class:`fivebar.linkage.Linkage`): its chain of links, for the paper's five-bar
+A-B-C-D-E of links L1 (A to B), L2 (B to C), L3 (C to D), L4 (D to E), each cut into a chosen
+number of elements (the description's mesh, the paper's 1-2-2-1, by default), with these joints:
 
-* the pins B, C, D share the global x, y translation; each link end keeps its own slope; the
+* the pins share the global x, y translation; each link end keeps its own slope; the
   curvature is zero at a pin end (no moment);
-* the crank roots A and E do not translate; their curvature is free; their slope is the
-  torsion of the motor shaft at its coupling end (U4 at A, U8 at E: the crank is clamped to the
-  shaft, erratum E6).  With ``motors=False`` the roots are clamped (slope zero) and the motor
-  elements are left out.  ``tie_crank_roots=False`` is the literal reading of (A.12), which
-  leaves the crank-root slopes free and K singular;
+* a driven crank's root does not translate; its curvature is free; its slope is the torsion of
+  the motor shaft at its coupling end (for the five-bar U4 at A, U8 at E: the crank is clamped
+  to the shaft, erratum E6).  With ``motors=False``, or for a crank without a motor, the root
+  is clamped (slope zero) and the motor elements are left out.  ``tie_crank_roots=False`` is
+  the literal reading of (A.12), which leaves the crank-root slopes free and K singular;
+* a ground pin does not translate; its slope is free and its curvature zero (no moment);
 * interior nodes of a link carry x, y, slope and curvature.
 
 Supports and joints are imposed by identifying or eliminating DOFs, never by penalty springs.
@@ -35,6 +37,7 @@ element from its first to its second node, w to the left); the global translatio
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import tomllib
 
@@ -43,11 +46,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import InputError
 from .elements import beam_element, motor_element, shape_functions
-from .kinematics import LINKS, RigidState, link_angles
+from .kinematics import RigidState, link_angles
+from .linkage import Link, Linkage
 from .params import DEFAULT_PARAMS_PATH, Params
 
 __all__ = [
-    "CHAIN",
     "Dof",
     "ElementInfo",
     "Model",
@@ -56,12 +59,18 @@ __all__ = [
     "PAPER_ELEMENTS_PER_LINK",
 ]
 
-#: The paper's mesh: crank AB one element, couplers two each, crank DE one (Figure 5).
-PAPER_ELEMENTS_PER_LINK = (1, 2, 2, 1)
+def __getattr__(name: str):
+    # the paper's mesh (Figure 5) and chain, from the default parameter file's description
+    if name in ("PAPER_ELEMENTS_PER_LINK", "CHAIN"):
+        from .params import load_params
 
-#: (link, first joint, last joint) in the direction of the elements (Figure 5, (A.12)).
-CHAIN = (("L1", "A", "B"), ("L2", "B", "C"), ("L3", "C", "D"), ("L4", "D", "E"))
-_GROUND = {"A": 1, "E": 2}  # crank root -> motor number
+        lk = load_params().linkage
+        if name == "PAPER_ELEMENTS_PER_LINK":
+            return lk.default_mesh
+        return tuple((k.name, lk.chain[i], lk.chain[i + 1]) for i, k in enumerate(lk.links))
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 _AXIAL = np.array([1.0, 0, 0, 0, 1.0, 0, 0, 0])
 
 
@@ -84,7 +93,7 @@ class ElementInfo:
 
     ``dofs`` holds, for the 8 local DOFs, the index of the global DOF (or -1 where the local
     DOF is held at zero: translation at a crank root, curvature at a pin).  ``s0, s1`` are the
-    fractions along the link in the chain direction (:data:`CHAIN`).
+    fractions along the link in the chain direction (elements run along the chain).
     """
 
     link: str
@@ -104,7 +113,7 @@ class Model:
     """
 
     params: Params
-    elements_per_link: tuple[int, int, int, int]
+    elements_per_link: tuple[int, ...]
     motors: bool
     tie_crank_roots: bool
     dofs: list[Dof]
@@ -117,11 +126,35 @@ class Model:
     Mm: dict[int, NDArray] = field(repr=False)
     Km: dict[int, NDArray] = field(repr=False)
     lumped: dict[str, float] = field(repr=False)
+    _motor_link: dict[str, str] = field(default_factory=dict, repr=False)
 
     @property
     def n(self) -> int:
         """Number of generalised coordinates."""
         return len(self.dofs)
+
+    @property
+    def linkage(self) -> Linkage:
+        """The linkage description the model is built from."""
+        return self.params.linkage
+
+    def _reversed(self, link: str) -> bool:
+        """Whether the chain direction of a link is opposite to its kinematic direction."""
+        lk = self.linkage
+        k = lk.link_names.index(link)
+        return lk.chain_sign(k) < 0
+
+    def _node_location(self, node: str) -> tuple[str, float]:
+        """(link, fraction along the link's kinematic direction) of a translating node."""
+        lk = self.linkage
+        if "[" in node:
+            link, j = node[:-1].split("[")
+            s = int(j) / self.elements_per_link[lk.link_names.index(link)]
+        else:  # a pin: the end of the link that ends there in the chain
+            link, s = lk.links[lk.chain.index(node) - 1].name, 1.0
+        if self._reversed(link):
+            s = 1.0 - s
+        return link, s
 
     # --- configuration-dependent matrices --------------------------------------------------
     def element_angles(self, angles: dict[str, NDArray]) -> list[NDArray]:
@@ -129,7 +162,7 @@ class Model:
         out = []
         for el in self.elements:
             beta = np.asarray(angles[el.link], float)
-            if _reversed(el.link):
+            if self._reversed(el.link):
                 beta = beta + np.pi
             out.append(beta)
         return out
@@ -146,15 +179,15 @@ class Model:
             R[..., k, k] = 1.0
         return R
 
-    def matrices(self, theta1: ArrayLike, theta4: ArrayLike, mode: int = 1) -> tuple[NDArray, NDArray]:
-        """Global mass and stiffness matrices M, K at crank angles (rad).
+    def matrices(self, *theta: ArrayLike, mode: int | None = None) -> tuple[NDArray, NDArray]:
+        """Global mass and stiffness matrices M, K at crank angles (rad), one per driven crank.
 
-        ``M, K = model.matrices(theta1, theta4)``; with arrays of angles the result has
-        shape ``(..., n, n)``.  K holds the structural stiffness (beams and K11 of the
-        motors); the electromagnetic K0 of (2.7) is separate.
+        ``M, K = model.matrices(theta1, theta4)`` (the five-bar); with arrays of angles the
+        result has shape ``(..., n, n)``.  K holds the structural stiffness (beams and K11 of
+        the motors); the electromagnetic K0 of (2.7) is separate.
         """
-        angles = link_angles(self.params, theta1, theta4, mode)
-        shape = np.shape(angles["L1"])
+        angles = link_angles(self.params, *theta, mode=mode)
+        shape = np.shape(angles[self.elements[0].link])
         n = self.n
         M = np.zeros(shape + (n, n))
         K = np.zeros(shape + (n, n))
@@ -175,23 +208,24 @@ class Model:
         # R^T M R is symmetric only to round-off: make it exactly so
         return 0.5 * (M + np.swapaxes(M, -1, -2)), 0.5 * (K + np.swapaxes(K, -1, -2))
 
-    def corotating_transform(self, theta1: ArrayLike, theta4: ArrayLike, mode: int = 1) -> NDArray:
+    def corotating_transform(self, *theta: ArrayLike, mode: int | None = None) -> NDArray:
         """T with u = T q~: translations of every node expressed in a frame that turns with it.
 
-        Interior nodes of a link turn with that link; the pins B, C, D turn with the link that
-        ends there in the chain (L1, L2, L3).  Slopes, curvatures and motor DOFs are unchanged.
+        Interior nodes of a link turn with that link; a pin turns with the link that ends there
+        in the chain (for the five-bar B, C, D with L1, L2, L3).  Slopes, curvatures and motor DOFs are unchanged.
         In these coordinates M and K vary with the configuration only through the angles
         between links, so their period means are meaningful (in the global frame they are
         not: averaging smears each link's axial stiffness over every direction).
         Shape ``(..., n, n)``; T is orthogonal.
         """
-        angles = link_angles(self.params, theta1, theta4, mode)
-        shape = np.shape(angles["L1"])
+        angles = link_angles(self.params, *theta, mode=mode)
+        shape = np.shape(angles[self.elements[0].link])
         T = np.zeros(shape + (self.n, self.n))
         idx = np.arange(self.n)
         T[..., idx, idx] = 1.0
+        chain, links = self.linkage.chain, self.linkage.links
         for node, (ix, iy) in self.node_dofs.items():
-            link = node.split("[")[0] if "[" in node else {"B": "L1", "C": "L2", "D": "L3"}[node]
+            link = node.split("[")[0] if "[" in node else links[chain.index(node) - 1].name
             c, s = np.cos(angles[link]), np.sin(angles[link])
             T[..., ix, ix], T[..., ix, iy] = c, -s
             T[..., iy, ix], T[..., iy, iy] = s, c
@@ -199,12 +233,12 @@ class Model:
 
     # --- rigid-body fields --------------------------------------------------------------
     def _rigid_field(self, state: RigidState, order: int) -> NDArray:
-        shape = np.shape(state.angle["L1"])
+        shape = np.shape(state.angle[self.elements[0].link])
         out = np.zeros(shape + (self.n,))
         g = self.params.gravity if order == 2 else 0.0
         rate = state.omega if order == 1 else state.alpha
         for node, (ix, iy) in self.node_dofs.items():
-            link, s = _node_location(node, self.elements_per_link)
+            link, s = self._node_location(node)
             v = state.point(link, s)[order]
             out[..., ix] = v[..., 0]
             out[..., iy] = v[..., 1] + g
@@ -212,7 +246,7 @@ class Model:
             if d.kind == "slope":
                 out[..., i] = rate[d.link]
             elif d.kind.startswith("torsion"):
-                out[..., i] = rate["L1" if d.where == "motor1" else "L4"]
+                out[..., i] = rate[self._motor_link[d.where]]
         return out
 
     def rigid_acceleration(self, state: RigidState) -> NDArray:
@@ -233,14 +267,15 @@ class Model:
         return self._rigid_field(state, 1)
 
     # --- elastic displacement fields --------------------------------------------------
-    def element_displacements(self, u: ArrayLike, theta1: ArrayLike, theta4: ArrayLike, mode: int = 1) -> NDArray:
+    def element_displacements(self, u: ArrayLike, *theta: ArrayLike, mode: int | None = None) -> NDArray:
         """Local DOFs [u1, w1, w1', w1'', u2, w2, w2', w2''] of every element.
 
-        ``u`` has shape ``(..., n)`` and broadcasts with the crank angles (rad); the result has
-        shape ``(..., n_elements, 8)`` (m, rad, 1/m) in each element's own frame.
+        ``u`` has shape ``(..., n)`` and broadcasts with the crank angles (rad, one per driven
+        crank); the result has shape ``(..., n_elements, 8)`` (m, rad, 1/m) in each element's
+        own frame.
         """
         u = np.asarray(u, float)
-        angles = link_angles(self.params, theta1, theta4, mode)
+        angles = link_angles(self.params, *theta, mode=mode)
         padded = np.concatenate([u, np.zeros(u.shape[:-1] + (1,))], axis=-1)  # index -1 -> 0
         out = []
         for el, beta in zip(self.elements, self.element_angles(angles)):
@@ -249,50 +284,56 @@ class Model:
         return np.stack(out, axis=-2)
 
     def link_displacement(
-        self, u: ArrayLike, theta1: ArrayLike, theta4: ArrayLike, link: str, s: float, derivative: int = 0, mode: int = 1
+        self, u: ArrayLike, *args: Any, derivative: int = 0, mode: int | None = None
     ) -> tuple[NDArray, NDArray]:
         """Elastic (axial, transverse) displacement of the point at fraction ``s`` of a link.
 
-        ``s`` runs along the link's kinematic direction (:data:`fivebar.kinematics.LINKS`),
-        and the transverse direction is that direction's left normal.  ``derivative`` = 1, 2
-        gives d/dx, d^2/dx^2 along the link (the slope and curvature of the deflection).
-        Works for any mesh: the point is interpolated with the element's shape functions.
+        ``model.link_displacement(u, theta1, theta4, link, s)``: the crank angles (one per
+        driven crank), the link's name and ``s``.  ``s`` runs along the link's kinematic
+        direction (start to end joint), and the transverse direction is that direction's left
+        normal.  ``derivative`` = 1, 2 gives d/dx, d^2/dx^2 along the link (the slope and
+        curvature of the deflection).  Works for any mesh: the point is interpolated with the
+        element's shape functions.
         """
+        *theta, link, s = args
         if not 0.0 <= s <= 1.0:
             raise InputError(f"s = {s!r} is not allowed: give a fraction of the link in [0, 1]")
-        q = self.element_displacements(u, theta1, theta4, mode)
-        sc = 1.0 - s if _reversed(link) else s
+        if link not in self.linkage.link_names:
+            raise InputError(f"link = {link!r} is not allowed: use one of {list(self.linkage.link_names)}")
+        q = self.element_displacements(u, *theta, mode=mode)
+        rev = self._reversed(link)
+        sc = 1.0 - s if rev else s
         els = [i for i, el in enumerate(self.elements) if el.link == link]
         i = next((k for k in els if self.elements[k].s0 <= sc <= self.elements[k].s1))
         el = self.elements[i]
-        L_link = el.length * self.elements_per_link[int(link[1]) - 1]
+        L_link = el.length * self.elements_per_link[self.linkage.link_names.index(link)]
         N = shape_functions(np.array([(sc - el.s0) * L_link]), el.length, derivative)[0]
         axial = q[..., i, :] @ (N * _AXIAL)
         transverse = q[..., i, :] @ (N * (1 - _AXIAL))
-        if _reversed(link):  # element frame = link frame turned by pi, and d/dx = -d/dxbar
+        if rev:  # element frame = link frame turned by pi, and d/dx = -d/dxbar
             sign = (-1.0) ** (derivative + 1)
             axial, transverse = sign * axial, sign * transverse
         return axial, transverse
 
     def deformed_shape(
-        self, u: ArrayLike, theta1: float, theta4: float, scale: float = 1.0, points: int = 41, mode: int = 1
+        self, u: ArrayLike, *theta: float, scale: float = 1.0, points: int = 41, mode: int | None = None
     ) -> dict[str, NDArray]:
-        """Points of the deformed links at one configuration, for drawing.
+        """Points of the deformed links at one configuration (crank angles ``theta``), for drawing.
 
         Returns ``{"L1": (points, 2), ...}``: the rigid position of ``points`` equally spaced
         points of each link plus ``scale`` times their elastic displacement (m).
         """
         from .kinematics import positions
 
-        P = positions(self.params, theta1, theta4, mode)
+        P = positions(self.params, *theta, mode=mode)
         out = {}
-        for link, (a, b) in LINKS.items():
+        for link, (a, b) in self.linkage.link_ends.items():
             d = P[b] - P[a]
             e = d / np.linalg.norm(d)
             n = np.array([-e[1], e[0]])
             pts = []
             for s in np.linspace(0.0, 1.0, points):
-                ax, tr = self.link_displacement(u, theta1, theta4, link, s, mode=mode)
+                ax, tr = self.link_displacement(u, *theta, link, s, mode=mode)
                 pts.append(P[a] + s * d + scale * (ax * e + tr * n))
             out[link] = np.array(pts)
         return out
@@ -325,55 +366,35 @@ class Model:
         raise KeyError(f"no DOF labelled {label!r}; labels are {[d.label for d in self.dofs]}")
 
 
-def _reversed(link: str) -> bool:
-    """Whether the chain direction of a link is opposite to its kinematic direction."""
-    (_, a, b), = [c for c in CHAIN if c[0] == link]
-    return LINKS[link] != (a, b)
-
-
-def _node_location(node: str, epl: tuple[int, ...]) -> tuple[str, float]:
-    """(link, fraction along the link's kinematic direction) of a translating node."""
-    if "[" in node:
-        link, j = node[:-1].split("[")
-        n = epl[int(link[1]) - 1]
-        s = int(j) / n
-    else:
-        link, s = {"B": ("L1", 1.0), "C": ("L2", 1.0), "D": ("L3", 1.0)}[node]
-    if _reversed(link):
-        s = 1.0 - s
-    return link, s
-
-
 def build_model(
     params: Params,
-    elements_per_link: tuple[int, int, int, int] | None = None,
+    elements_per_link: tuple[int, ...] | None = None,
     motors: bool = True,
     tie_crank_roots: bool = True,
 ) -> Model:
     """Number the DOFs, build the element matrices and return the :class:`Model`.
 
-    ``model = build_model(params)`` gives the paper's 1-2-2-1 mesh with both motors.
+    ``model = build_model(params)`` gives the description's mesh (the paper's 1-2-2-1) with
+    its motors.
 
     Parameters
     ----------
     params
-        Parameter set (link section from ``width``, ``thickness``, ``bending_depth``).
+        Parameter set; its ``linkage`` gives the links (length, section, material), joints,
+        lumped masses and motors.
     elements_per_link
-        Elements on L1, L2, L3, L4 (each >= 1); ``None`` is the paper's (1, 2, 2, 1).
+        Elements on each link in the order of the chain (each >= 1); ``None`` is the
+        description's mesh (for the paper's five-bar (1, 2, 2, 1) on L1..L4).
     motors
-        Include the two motor elements (DOFs U1-U8) with the crank roots tied to the shaft
-        torsion; ``False`` clamps the crank roots (rigid motor shafts).
+        Include the motor elements of the motor-driven cranks (DOFs U1-U8 for the five-bar)
+        with the crank roots tied to the shaft torsion; ``False`` clamps the crank roots
+        (rigid motor shafts).
     tie_crank_roots
         ``False`` gives the literal reading of (A.12) (crank-root slopes independent of the
         motors: singular K); only meaningful with ``motors=True``.
     """
-    epl = PAPER_ELEMENTS_PER_LINK if elements_per_link is None else tuple(elements_per_link)
-    if len(epl) != 4 or any(isinstance(k, bool) or int(k) != k or k < 1 for k in epl):
-        raise InputError(
-            f"elements_per_link = {elements_per_link!r} is not allowed: give four integers >= 1 "
-            "(elements on L1, L2, L3, L4)"
-        )
-    epl = tuple(int(k) for k in epl)
+    lk = params.linkage
+    epl = lk.check_mesh(elements_per_link)
     dofs: list[Dof] = []
     paper: list[int] = []
 
@@ -383,33 +404,40 @@ def build_model(
         return len(dofs) - 1
 
     motor_dofs: dict[int, tuple[int, int, int, int]] = {}
+    root_motor: dict[str, int] = {}  # crank joint -> motor ordinal
+    motor_link: dict[str, str] = {}  # motor section -> the link it turns
     if motors:
-        for i in (1, 2):
+        for i, (joint, section) in enumerate(lk.motors, start=1):
             base = 4 * (i - 1)
             motor_dofs[i] = tuple(
-                new(f"U{base + k + 1}", kind, f"motor{i}")
+                new(f"U{base + k + 1}", kind, section)
                 for k, kind in enumerate(("rotor_x", "rotor_y", "torsion_bearing", "torsion_coupling"))
             )
+            root_motor[joint] = i
+            motor_link[section] = lk.crank_link(joint).name
 
     node_dofs: dict[str, tuple[int, int]] = {}
     elements: list[ElementInfo] = []
-    lengths = dict(zip(("L1", "L2", "L3", "L4"), params.lengths[:4]))
-    for (link, first, last), ne in zip(CHAIN, epl):
+    for k, (lnk, ne) in enumerate(zip(lk.links, epl)):
+        link, first, last = lnk.name, lk.chain[k], lk.chain[k + 1]
         # nodal DOFs of this link: (x, y, slope, curvature) with -1 for zero
         nodes: list[tuple[int, int, int, int]] = []
         for j in range(ne + 1):
             joint = first if j == 0 else last if j == ne else None
-            if joint in _GROUND:
-                mi = _GROUND[joint]
-                if motors and tie_crank_roots:
-                    slope = motor_dofs[mi][3]
+            kind = lk.joint(joint).kind if joint is not None else None
+            if kind == "crank":
+                if joint in root_motor and tie_crank_roots:
+                    slope = motor_dofs[root_motor[joint]][3]
                     paper.append(slope)  # the paper's u9 / u31 is U4 / U8
-                elif motors:
+                elif joint in root_motor:
                     slope = new(f"{link}@{joint}.slope", "slope", joint, link)
                 else:
                     slope = -1
                 curv = new(f"{link}@{joint}.curvature", "curvature", joint, link)  # after the slope, as u10, u32
                 nodes.append((-1, -1, slope, curv))
+            elif kind == "ground":  # a ground pin: no translation, own slope, zero curvature
+                slope = new(f"{link}@{joint}.slope", "slope", joint, link)
+                nodes.append((-1, -1, slope, -1))
             elif joint is not None:  # a pin: shared translation, own slope, zero curvature
                 if joint not in node_dofs:
                     node_dofs[joint] = (new(f"{joint}.x", "x", joint), new(f"{joint}.y", "y", joint))
@@ -422,7 +450,7 @@ def build_model(
                 slope = new(f"{name}.slope", "slope", name, link)
                 curv = new(f"{name}.curvature", "curvature", name, link)
                 nodes.append((ix, iy, slope, curv))
-        Le = lengths[link] / ne
+        Le = lnk.length / ne
         for j in range(ne):
             a, b = nodes[j], nodes[j + 1]
             elements.append(
@@ -430,15 +458,12 @@ def build_model(
             )
 
     Me, Ke = {}, {}
-    for link, ne in zip(("L1", "L2", "L3", "L4"), epl):
-        Me[link], Ke[link] = beam_element(
-            lengths[link] / ne, params.E, params.A, params.I, params.rho, rotary_inertia=bool(params.rotary_inertia)
-        )
+    for lnk, ne in zip(lk.links, epl):
+        Me[lnk.name], Ke[lnk.name] = _link_element(lnk, ne, params)
     Mm, Km = {}, {}
-    if motors:
-        for i, motor in ((1, params.motor1), (2, params.motor2)):
-            Mm[i], Km[i] = motor_element(motor)
-    return Model(
+    for i, (_, section) in enumerate(lk.motors if motors else (), start=1):
+        Mm[i], Km[i] = motor_element(getattr(params, section))
+    model = Model(
         params=params,
         elements_per_link=epl,
         motors=motors,
@@ -452,8 +477,15 @@ def build_model(
         Ke=Ke,
         Mm=Mm,
         Km=Km,
-        lumped={"B": params.m01, "C": params.m02},
+        lumped=lk.masses,
     )
+    model._motor_link = motor_link
+    return model
+
+
+def _link_element(link: Link, ne: int, params: Params) -> tuple[NDArray, NDArray]:
+    sec, mat = link.section, link.material
+    return beam_element(link.length / ne, mat.E, sec.area, sec.I, mat.rho, rotary_inertia=bool(params.rotary_inertia))
 
 
 def paper_b_matrices() -> dict[int, NDArray]:

@@ -178,10 +178,10 @@ class LinkageDynamics:
         self.step_data = PeriodicStepData(M, C, K, F, t0=0.0, period=self.period)
 
     # --- sampling ------------------------------------------------------------------------------
-    def crank_angles(self, t: ArrayLike) -> tuple[NDArray, NDArray]:
-        """Crank angles theta1, theta4 (rad) at times t (s)."""
-        th1, _, _, th4, _, _ = crank_laws(self.params, t)
-        return th1, th4
+    def crank_angles(self, t: ArrayLike) -> tuple[NDArray, ...]:
+        """Crank angles (rad) at times t (s), one array per driven crank (theta1, theta4 for
+        the five-bar)."""
+        return crank_laws(self.params, t)[0::3]
 
     def _sampled(self, t: NDArray, elements_per_link, motors) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """M, C, K, F at the S step times, from the speed-independent cache when it serves.
@@ -246,7 +246,7 @@ class LinkageDynamics:
     def _sample(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         laws = crank_laws(self.params, t)
         state = rigid_state(self.params, *laws)
-        M, K = self.model.matrices(laws[0], laws[3])
+        M, K = self.model.matrices(*laws[0::3])
         k = self.keep
         # contiguous (the fancy index leaves a transposed layout), as the compiled loop reads them
         M, K = (np.ascontiguousarray(X[..., k[:, None], k[None, :]]) for X in (M, K))

@@ -10,7 +10,7 @@ derive their errors from it too.
 
 from __future__ import annotations
 
-__all__ = ["ComputationError", "FivebarError", "InputError", "InputTypeError"]
+__all__ = ["ComputationError", "FivebarError", "InputError", "InputTypeError", "ParameterError"]
 
 
 class FivebarError(Exception):
@@ -19,6 +19,10 @@ class FivebarError(Exception):
 
 class InputError(FivebarError, ValueError):
     """A bad argument: the message names the value and what is allowed."""
+
+
+class ParameterError(FivebarError, ValueError):
+    """A parameter file or override holds a missing, unknown or invalid entry."""
 
 
 class InputTypeError(FivebarError, TypeError):

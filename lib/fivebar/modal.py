@@ -66,10 +66,18 @@ def _model(params: Params, motors: bool, elements_per_link, model: Model | None)
     return build_model(params, elements_per_link=elements_per_link, motors=motors)
 
 
+def _theta(theta1, theta4) -> tuple:
+    """The crank angles: ``theta1, theta4`` (the five-bar), ``theta1`` alone (theta4 None: one
+    driven crank) or a sequence of angles as ``theta1``."""
+    if theta4 is None:
+        return tuple(np.atleast_1d(theta1)) if np.ndim(theta1) else (theta1,)
+    return (theta1, theta4)
+
+
 def modes(
     params: Params,
     theta1: float,
-    theta4: float,
+    theta4: float | None = None,
     n: int | None = 6,
     motors: bool = True,
     elements_per_link: tuple[int, int, int, int] | None = None,
@@ -77,7 +85,8 @@ def modes(
 ) -> Modes:
     """Lowest ``n`` modes at one frozen configuration (crank angles in rad).
 
-    ``n=None`` returns all modes.  Pass a prebuilt ``model`` to skip the assembly set-up.
+    ``theta1, theta4`` are the five-bar's crank angles; a linkage with one driven crank takes
+    ``theta1`` alone (``modes(params, theta, n=6)``).  ``n=None`` returns all modes.  Pass a prebuilt ``model`` to skip the assembly set-up.
     """
     m = _model(params, motors, elements_per_link, model)
     if n is not None and n > m.n:
@@ -85,7 +94,7 @@ def modes(
             f"n = {n!r} modes is more than the model has: at most {m.n} (its DOFs; refine the mesh "
             "with elements_per_link for more)"
         )
-    M, K = m.matrices(theta1, theta4)
+    M, K = m.matrices(*_theta(theta1, theta4))
     f, V = _eig(M, K, n)
     return Modes(f, V, m)
 
@@ -93,12 +102,13 @@ def modes(
 def natural_frequencies(
     params: Params,
     theta1: float,
-    theta4: float,
+    theta4: float | None = None,
     n: int = 6,
     motors: bool = True,
     elements_per_link: tuple[int, int, int, int] | None = None,
 ) -> NDArray:
-    """The ``n`` lowest natural frequencies (Hz) at crank angles ``theta1, theta4`` (rad).
+    """The ``n`` lowest natural frequencies (Hz) at crank angles ``theta1, theta4`` (rad;
+    ``theta1`` alone for one driven crank, as :func:`modes`).
 
     ``motors=False`` clamps the crank roots (rigid motor shafts) and leaves the motor
     elements out.  ``elements_per_link`` refines the mesh (default the paper's 1-2-2-1).
@@ -117,13 +127,14 @@ def frequencies_along_cycle(
 ) -> NDArray:
     """Lowest ``n`` natural frequencies (Hz) at the configurations of the default crank laws.
 
-    ``crank_angles`` are angles of crank AB (rad) measured from its initial angle; crank DE
-    follows with the speed ratio of the parameters.  Returns shape ``(len(crank_angles), n)``.
+    ``crank_angles`` are the phase Omega t of the drive (rad; for the five-bar the
+    angle of crank AB measured from its initial angle, crank DE following with the speed
+    ratio of the parameters).  Returns shape ``(len(crank_angles), n)``.
     """
     phi = np.atleast_1d(np.asarray(crank_angles, float))
-    th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed)
+    th = crank_laws(params, phi / params.crank_speed)[0::3]
     m = build_model(params, elements_per_link=elements_per_link, motors=motors)
-    M, K = m.matrices(th1, th4)
+    M, K = m.matrices(*th)
     return _eig(M, K, n)[0]
 
 
@@ -168,11 +179,11 @@ def averaged_matrix_modes(
     if frame not in ("corotating", "global"):
         raise InputError(f"frame = {frame!r} is not allowed: use 'corotating' or 'global'")
     t = np.arange(S) * params.period / S
-    th1, _, _, th4, _, _ = crank_laws(params, t)
+    th = crank_laws(params, t)[0::3]
     m = build_model(params, elements_per_link=elements_per_link, motors=motors)
-    M, K = m.matrices(th1, th4)
+    M, K = m.matrices(*th)
     if frame == "corotating":
-        T = m.corotating_transform(th1, th4)
+        T = m.corotating_transform(*th)
         Tt = np.swapaxes(T, -1, -2)
         M, K = Tt @ M @ T, Tt @ K @ T
     f, V = _eig(M.mean(axis=0), K.mean(axis=0), n)

@@ -19,12 +19,16 @@ deflection) are all present.
   Vibration 318, 2008, 461-487), axial stiffness ``E A``,
   bending stiffness ``E I`` with the in-plane depth ``params.bending_depth``, mass per length
   ``rho A`` (no rotary inertia: the library's ``rotary_inertia`` term has no counterpart).
-* Pins B, C, D: the position coordinates of the two link ends are tied, slopes free.
-* Lumped masses ``m01`` at B and ``m02`` at C (``ObjectGenericODE2`` mass matrices on the
-  position coordinates of the pin node).
-* Crank roots A and E: position fixed, and the slope vector of the root node kept along the
-  prescribed crank angle, :math:`-\sin\theta\,r'_x + \cos\theta\,r'_y = 0` (a clamped cross
-  section turned by the motor, a user-function constraint).  The crank speed ramps up over
+* The linkage is the parameter file's description (:class:`fivebar.linkage.Linkage`; the
+  paper's five-bar by default, or any single-loop linkage it describes).
+* Pins (B, C, D of the five-bar): the position coordinates of the two link ends are tied,
+  slopes free.  Ground pins: position fixed, slope free.
+* Lumped masses (``m01`` at B and ``m02`` at C of the five-bar: ``ObjectGenericODE2`` mass
+  matrices on the position coordinates of the pin node).
+* Crank roots (A and E of the five-bar): position fixed, and the slope vector of the root node
+  kept along the prescribed crank angle, :math:`-\sin\theta\,r'_x + \cos\theta\,r'_y = 0` (a
+  clamped cross section turned by the motor, a user-function constraint); the drive is at
+  constant speed (the description's ``ratio`` times the crank speed).  The crank speed ramps up over
   ``ramp_periods`` periods with a quintic smooth step and stays constant after, so that the
   crank angle is :math:`\theta_0 + \Omega (t - T_r/2)` after the ramp (an even number of ramp
   periods puts crank angle 0 at whole periods).
@@ -54,7 +58,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import ComputationError, InputError
-from .kinematics import LINKS, link_angles, positions
+from .kinematics import crank_laws, link_angles, positions
 from .params import Params
 
 __all__ = [
@@ -68,8 +72,9 @@ __all__ = [
 ]
 
 _DIRECTIONS = ("transverse", "longitudinal", "chord")
-#: default mesh: elements per link L1..L4 (couplers even, so a node sits at the midpoint)
-DEFAULT_ELEMENTS = (2, 4, 4, 2)
+#: default mesh: twice the description's elements on every link (for the five-bar (2, 4, 4, 2)
+#: on L1..L4: couplers even, so a node sits at the midpoint)
+DEFAULT_ELEMENTS = None
 
 
 class MultibodyError(ComputationError):
@@ -89,14 +94,23 @@ def _exudyn():
     return exudyn
 
 
-def _check_mesh(elements_per_link) -> tuple[int, int, int, int]:
-    epl = tuple(int(n) for n in elements_per_link)
-    if len(epl) != 4 or any(n < 1 for n in epl) or epl[1] % 2 or epl[2] % 2:
-        raise InputError(
-            f"elements_per_link = {elements_per_link!r} is not allowed: give four positive "
-            "integers (L1..L4) with even numbers for the couplers L2 and L3"
-        )
-    return epl  # type: ignore[return-value]
+def _check_mesh(params: Params, elements_per_link) -> tuple[int, ...]:
+    lk = params.linkage
+    if elements_per_link is None:
+        return tuple(2 * k for k in lk.default_mesh)
+    return lk.check_mesh(elements_per_link, even=True)
+
+
+def _theta(params: Params, theta1, theta4) -> tuple[float, ...]:
+    """The crank angles: (theta1, theta4) for two cranks, (theta1,) for one; None: the
+    initial angles of the drives."""
+    n = len(params.linkage.cranks)
+    if theta1 is None and theta4 is None:
+        return tuple(float(x) for x in crank_laws(params, 0.0)[0::3])
+    th = (theta1,) if n == 1 else (theta1, theta4)
+    if n == 1 and theta4 is not None:
+        raise InputError(f"theta4 = {theta4!r} is not allowed: the linkage has one driven crank")
+    return tuple(float(x) for x in th)
 
 
 def _smooth_angle(t: float, W: float, Tr: float) -> tuple[float, float, float]:
@@ -117,18 +131,18 @@ class MultibodyModel:
     """An assembled Exudyn system of the linkage and the bookkeeping to read it."""
 
     params: Params
-    elements_per_link: tuple[int, int, int, int]
+    elements_per_link: tuple[int, ...]
     SC: object = field(repr=False)
     mbs: object = field(repr=False)
-    #: per link, the Exudyn node numbers along the link's kinematic direction (LINKS)
+    #: per link, the Exudyn node numbers along the link's kinematic direction (start to end)
     nodes: dict[str, list[int]] = field(repr=False)
     #: per link, the ODE2 coordinate indices (x, y) of each node along the link
     coords: dict[str, NDArray] = field(repr=False)
     #: reference positions (m) of the nodes, per link, (nodes, 2)
     reference: dict[str, NDArray] = field(repr=False)
     beta: float = 0.0
-    theta1: float = 0.0
-    theta4: float = 0.0
+    #: the crank angles (rad) of the built configuration, one per driven crank
+    theta: tuple[float, ...] = ()
 
 
 def build(
@@ -142,18 +156,23 @@ def build(
 ) -> MultibodyModel:
     """Build the Exudyn model in the configuration of crank angles ``theta1, theta4`` (rad).
 
-    ``theta1, theta4`` default to ``params.theta1_0, params.theta4_0``.  The root slopes
-    follow ``theta + offset(t)`` with the ramped crank law of speed ``crank_speed`` (rad/s;
-    0: frozen) and ramp time ``ramp`` (s).  ``beta`` is the Kelvin-Voigt damping time (s).
+    ``theta1, theta4`` (``theta1`` alone for a linkage with one driven crank) default to the
+    drives' initial angles (``params.theta1_0, params.theta4_0`` for the five-bar).  The root
+    slopes follow ``theta + offset(t)`` with the ramped crank law of speed ``crank_speed``
+    (rad/s, times each drive's ratio; 0: frozen) and ramp time ``ramp`` (s).  ``beta`` is the
+    Kelvin-Voigt damping time (s).
     """
     exu = _exudyn()
     ii = exu.itemInterface
-    epl = _check_mesh(elements_per_link)
-    th1 = params.theta1_0 if theta1 is None else float(theta1)
-    th4 = params.theta4_0 if theta4 is None else float(theta4)
-    P = positions(params, th1, th4)
-    ang = link_angles(params, th1, th4)
-    EA, EI, rhoA = params.E * params.A, params.E * params.I, params.rho * params.A
+    lk = params.linkage
+    epl = _check_mesh(params, elements_per_link)
+    th = _theta(params, theta1, theta4)
+    for j in lk.cranks:
+        if j.drive.fourier or j.drive.function is not None:  # type: ignore[union-attr]
+            raise InputError(f"the drive of crank {j.name} is not at constant speed: the multibody model "
+                             "drives its cranks at constant speed only")
+    P = positions(params, *th)
+    ang = link_angles(params, *th)
 
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
@@ -163,7 +182,10 @@ def build(
     nodes: dict[str, list[int]] = {}
     reference: dict[str, NDArray] = {}
     bodies = []
-    for k, (link, (a, b)) in enumerate(LINKS.items()):
+    for k, lnk in enumerate(lk.links):
+        link, a, b = lnk.name, lnk.start, lnk.end
+        EA, EI = lnk.material.E * lnk.section.area, lnk.material.E * lnk.section.I
+        rhoA = lnk.material.rho * lnk.section.area
         n_el = epl[k]
         e = np.array([np.cos(ang[link]), np.sin(ang[link])])
         pts = P[a] + np.linspace(0.0, 1.0, n_el + 1)[:, None] * (P[b] - P[a])
@@ -183,17 +205,25 @@ def build(
         m1 = mground if n1 is None else mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=n1, coordinate=c1))
         mbs.AddObject(ii.CoordinateConstraint(markerNumbers=[m1, m0]))
 
-    # crank roots: A is the first node of L1, E the first node of L4 (E -> D); pins B, C, D
-    for root in (nodes["L1"][0], nodes["L4"][0]):
-        tie(root, 0, None)
-        tie(root, 1, None)
-    for (la, ia), (lb, ib) in ((("L1", -1), ("L2", 0)), (("L2", -1), ("L3", 0)), (("L3", -1), ("L4", -1))):
-        for c in (0, 1):
-            tie(nodes[la][ia], c, nodes[lb][ib], c)
+    def node_at(link, joint: str) -> int:
+        return nodes[link.name][0 if link.start == joint else -1]
 
-    # clamped, driven root cross-sections: slope vector along theta(t)
-    W1, W4 = crank_speed, params.speed_ratio * crank_speed
-    for root, th0, W in ((nodes["L1"][0], th1, W1), (nodes["L4"][0], th4, W4)):
+    # ground joints (crank roots and ground pins): position fixed; pins: the two link ends tied
+    for j, link in ((lk.chain[0], lk.links[0]), (lk.chain[-1], lk.links[-1])):
+        tie(node_at(link, j), 0, None)
+        tie(node_at(link, j), 1, None)
+    for k in range(1, len(lk.chain) - 1):
+        j = lk.chain[k]
+        for c in (0, 1):
+            tie(node_at(lk.links[k - 1], j), c, node_at(lk.links[k], j), c)
+
+    # clamped, driven root cross-sections: slope vector along the crank link's angle theta(t)
+    drives = []
+    for joint, th0 in zip(lk.cranks, th):
+        link = lk.crank_link(joint.name)
+        th0 = th0 if link.start == joint.name else th0 + np.pi
+        drives.append((node_at(link, joint.name), th0, joint.drive.ratio * crank_speed))  # type: ignore[union-attr]
+    for root, th0, W in drives:
         mk = mbs.AddMarker(ii.MarkerNodeCoordinates(nodeNumber=root))
 
         def constraint(mbs_, t, item, q, q_t, velocityLevel, th0=th0, W=W):
@@ -215,9 +245,10 @@ def build(
             markerNumbers=[mground_all, mk], scalingMarker0=np.zeros((1, 1)),
             constraintUserFunction=constraint, jacobianUserFunction=jacobian))
 
-    # lumped masses at B (end of L1) and C (end of L2)
-    for link, m in (("L1", params.m01), ("L2", params.m02)):
-        mbs.AddObject(ii.ObjectGenericODE2(nodeNumbers=[nodes[link][-1]],
+    # lumped masses at pins (B at the end of L1 and C at the end of L2 for the five-bar)
+    lumped = [(node_at(lk.links[lk.chain.index(j) - 1], j), m) for j, m in lk.masses.items() if m > 0]
+    for node, m in lumped:
+        mbs.AddObject(ii.ObjectGenericODE2(nodeNumbers=[node],
                                            massMatrix=np.diag([m, m, 0.0, 0.0]),
                                            stiffnessMatrix=np.zeros((4, 4))))
     if params.gravity:
@@ -225,22 +256,23 @@ def build(
         for b in bodies:
             mm = mbs.AddMarker(ii.MarkerBodyMass(bodyNumber=b))
             mbs.AddLoad(ii.LoadMassProportional(markerNumber=mm, loadVector=[0.0, -g, 0.0]))
-        for link, m in (("L1", params.m01), ("L2", params.m02)):
-            mp = mbs.AddMarker(ii.MarkerNodePosition(nodeNumber=nodes[link][-1]))
+        for node, m in lumped:
+            mp = mbs.AddMarker(ii.MarkerNodePosition(nodeNumber=node))
             mbs.AddLoad(ii.LoadForceVector(markerNumber=mp, loadVector=[0.0, -m * g, 0.0]))
     mbs.Assemble()
     coords = {link: np.array([list(mbs.systemData.GetNodeLTGODE2(n))[:2] for n in nn])
               for link, nn in nodes.items()}
-    return MultibodyModel(params, epl, SC, mbs, nodes, coords, reference, beta, th1, th4)
+    return MultibodyModel(params, epl, SC, mbs, nodes, coords, reference, beta, th)
 
 
 def frozen_system(
-    params: Params, theta1: float, theta4: float, elements_per_link=DEFAULT_ELEMENTS, beta: float = 0.0
+    params: Params, theta1: float, theta4: float | None = None, elements_per_link=DEFAULT_ELEMENTS, beta: float = 0.0
 ) -> tuple[NDArray, NDArray, NDArray]:
     """Mass, stiffness and damping matrices of the frozen linkage, in the constraints' null space.
 
     ``M, K, D = frozen_system(params, theta1, theta4)`` (SI): the Exudyn system linearised at
-    the undeformed configuration of the crank angles (rad), roots clamped.
+    the undeformed configuration of the crank angles (rad; ``theta1`` alone for one driven
+    crank), roots clamped.
     """
     exu = _exudyn()
     model = build(params, theta1, theta4, elements_per_link, beta=beta)
@@ -250,13 +282,13 @@ def frozen_system(
 
 
 def multibody_frequencies(
-    params: Params, theta1: float, theta4: float, n: int = 6, elements_per_link=DEFAULT_ELEMENTS
+    params: Params, theta1: float, theta4: float | None = None, n: int = 6, elements_per_link=DEFAULT_ELEMENTS
 ) -> NDArray:
     """The ``n`` lowest natural frequencies (Hz) of the frozen linkage, crank roots clamped.
 
     ``f = multibody_frequencies(params, theta1, theta4)``: Exudyn's linearisation at the
-    undeformed configuration of the crank angles ``theta1, theta4`` (rad), projected on the
-    null space of the constraints.  Compare with
+    undeformed configuration of the crank angles ``theta1, theta4`` (rad; ``theta1`` alone for
+    one driven crank), projected on the null space of the constraints.  Compare with
     ``fivebar.natural_frequencies(params, theta1, theta4, n, motors=False)``.
     """
     import scipy.linalg
@@ -271,7 +303,7 @@ def multibody_frequencies(
 
 
 def damping_ratios(
-    params: Params, theta1: float, theta4: float, beta: float, n: int = 6, elements_per_link=DEFAULT_ELEMENTS
+    params: Params, theta1: float, theta4: float | None, beta: float, n: int = 6, elements_per_link=DEFAULT_ELEMENTS
 ) -> tuple[NDArray, NDArray]:
     """Frequencies (Hz) and damping ratios of the ``n`` lowest modes of the damped frozen model.
 
@@ -303,7 +335,7 @@ class MultibodySteadyState:
         Periods simulated (ramp included).
     periodicity_error
         max abs(y_last - y_previous) / peak-to-peak(y_last) over the transverse midpoint
-        curves of L2 and L3: the change over the last period.
+        curves of the couplers (L2 and L3 of the five-bar): the change over the last period.
     seconds
         Wall-clock time of the simulation.
     """
@@ -314,7 +346,7 @@ class MultibodySteadyState:
     periods: int
     periodicity_error: float
     seconds: float
-    elements_per_link: tuple[int, int, int, int]
+    elements_per_link: tuple[int, ...]
     steps_per_period: int
 
     @property
@@ -324,10 +356,8 @@ class MultibodySteadyState:
 
     def _rigid(self, link: str):
         p = self.params
-        th1 = p.theta1_0 + p.crank_speed * self.t
-        th4 = p.theta4_0 + p.speed_ratio * p.crank_speed * self.t
-        P = positions(p, th1, th4)
-        a, b = LINKS[link]
+        P = positions(p, *crank_laws(p, self.t)[0::3])
+        a, b = p.linkage.link_ends[link]
         d = P[b] - P[a]
         e = d / np.linalg.norm(d, axis=-1, keepdims=True)
         nrm = np.stack([-e[..., 1], e[..., 0]], axis=-1)
@@ -345,8 +375,9 @@ class MultibodySteadyState:
 
         Same definitions, directions and signs as :meth:`fivebar.steady.SteadyState.midpoint`.
         """
-        if link not in LINKS:
-            raise InputError(f"link = {link!r} is not allowed: use one of {list(LINKS)}")
+        names = self.params.linkage.link_names
+        if link not in names:
+            raise InputError(f"link = {link!r} is not allowed: use one of {list(names)}")
         if direction not in _DIRECTIONS:
             raise InputError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
         if self.positions[link].shape[1] % 2 == 0:
@@ -393,10 +424,11 @@ def multibody_steady_state(
         divides ``steps_per_period``, else the greatest common divisor of the two (so that the
         samples fall on time steps).
     elements_per_link
-        ANCF elements per link L1..L4 (couplers even).
+        ANCF elements per link in chain order (L1..L4 for the five-bar; even on the links
+        between two pins); ``None`` is twice the description's mesh.
     tol
-        Stop when the transverse midpoint curves of L2 and L3 change over one period by less
-        than ``tol`` times their peak-to-peak value.
+        Stop when the transverse midpoint curves of the couplers (L2 and L3 of the five-bar)
+        change over one period by less than ``tol`` times their peak-to-peak value.
     ramp_periods
         Duration of the smooth run-up of the crank speed, in periods (even).
     damping_mode
@@ -415,7 +447,8 @@ def multibody_steady_state(
     if not tol > 0:
         raise InputError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
     T, W = params.period, params.crank_speed
-    f = multibody_frequencies(params, params.theta1_0, params.theta4_0, damping_mode, elements_per_link)
+    th0 = _theta(params, None, None)
+    f = multibody_frequencies(params, th0[0], th0[1] if len(th0) > 1 else None, damping_mode, elements_per_link)
     beta = 2 * params.damping_ratio / (2 * np.pi * f[damping_mode - 1])
     t0 = time.perf_counter()
     model = build(params, elements_per_link=elements_per_link, beta=beta, crank_speed=W,
@@ -423,7 +456,8 @@ def multibody_steady_state(
     mbs = model.mbs
     sub = steps_per_period // S
     dt = T / steps_per_period
-    links = list(LINKS)
+    links = list(params.linkage.link_names)
+    couplers = params.linkage.couplers
     ref = {k: model.reference[k] for k in links}
     record: list[dict[str, NDArray]] = []
     state = {"step": 0, "error": np.inf, "periods": 0}
@@ -431,13 +465,6 @@ def multibody_steady_state(
     def sample() -> dict[str, NDArray]:
         q = np.asarray(mbs.systemData.GetODE2Coordinates())
         return {k: ref[k] + q[model.coords[k]] for k in links}
-
-    def midpoints(rec):
-        out = []
-        for k in ("L2", "L3"):
-            arr = np.array([r[k] for r in rec])  # (S+1, nodes, 2)
-            out.append(arr)
-        return out
 
     def pre_step(mbs_, t):
         # called before the step that ends at t: the state is that of t - dt
@@ -452,7 +479,7 @@ def multibody_steady_state(
                     now = _steady(params, record[-S - 1:], ramp_periods)
                     before = _steady(params, record[-2 * S - 1: -S], ramp_periods)
                     err = 0.0
-                    for link in ("L2", "L3"):
+                    for link in couplers:
                         y, y0 = now.midpoint(link), before.midpoint(link)
                         err = max(err, float(np.abs(y - y0).max() / max(np.ptp(y), 1e-300)))
                     state["error"] = err
@@ -499,5 +526,5 @@ def multibody_steady_state(
 def _steady(params: Params, rec: list[dict[str, NDArray]], ramp_periods: int) -> MultibodySteadyState:
     S = len(rec) - 1
     t = np.arange(S + 1) * params.period / S
-    pos = {k: np.array([r[k] for r in rec]) for k in LINKS}
-    return MultibodySteadyState(params, t, pos, 0, np.nan, np.nan, (0, 0, 0, 0), 0)
+    pos = {k: np.array([r[k] for r in rec]) for k in params.linkage.link_names}
+    return MultibodySteadyState(params, t, pos, 0, np.nan, np.nan, (), 0)

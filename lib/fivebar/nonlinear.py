@@ -176,7 +176,7 @@ class NonlinearForce:
         self._g = np.array([g for _, g in wg])  # (n_el, npts, 8), local slopes
         self._npts = self._g.shape[1]
 
-    def element_geometry(self, theta1: ArrayLike, theta4: ArrayLike) -> tuple[NDArray, NDArray]:
+    def element_geometry(self, *theta: ArrayLike) -> tuple[NDArray, NDArray]:
         """Per-element slope rows ``Ge`` (..., n_el, n_gauss, 8) and stretch rows ``ae``
         (..., n_el, 8) in the element's global DOFs, at crank angles (rad) of any common shape.
 
@@ -184,7 +184,7 @@ class NonlinearForce:
         element loop (``fivebar._kernels.nl_force``) needs.
         """
         m = self.model
-        betas = np.stack(np.broadcast_arrays(*m.element_angles(link_angles(m.params, theta1, theta4))), axis=-1)
+        betas = np.stack(np.broadcast_arrays(*m.element_angles(link_angles(m.params, *theta))), axis=-1)
         R = m._rotations(betas)  # (..., n_el, 8, 8) local <- global
         Ge = self._g @ R  # (..., n_el, npts, 8)
         ae = (R[..., 4, :] - R[..., 0, :]) / self._L[:, None]  # (..., n_el, 8)
@@ -200,10 +200,11 @@ class NonlinearForce:
         """(n_el, n_gauss) EA times the Gauss weights (N m)."""
         return self._wE.reshape(len(self.model.elements), self._npts)
 
-    def geometry(self, theta1: ArrayLike, theta4: ArrayLike) -> ElementGeometry:
-        """Slope and stretch operators at crank angles (rad) of any (common) shape."""
+    def geometry(self, *theta: ArrayLike) -> ElementGeometry:
+        """Slope and stretch operators at crank angles (rad, one per driven crank) of any
+        (common) shape."""
         m = self.model
-        Ge, ae = self.element_geometry(theta1, theta4)
+        Ge, ae = self.element_geometry(*theta)
         shape = ae.shape[:-2]
         nel, npts, n = len(m.elements), self._npts, self.n
         H = np.zeros(shape + (2, nel, npts, n))
@@ -235,14 +236,14 @@ class NonlinearForce:
         K = H2.T @ Z.reshape(2 * P, n)
         return f, K
 
-    def __call__(self, u: ArrayLike, theta1: float, theta4: float) -> tuple[NDArray, NDArray]:
+    def __call__(self, u: ArrayLike, *theta: float) -> tuple[NDArray, NDArray]:
         u = np.asarray(u, float)
         if u.shape != (self.n,):
             raise ValueError(f"u has shape {u.shape}: expected ({self.n},), one state of the force's DOFs")
-        return self.evaluate(u, self.geometry(float(theta1), float(theta4)))
+        return self.evaluate(u, self.geometry(*(float(x) for x in theta)))
 
-    def energy(self, u: ArrayLike, theta1: float, theta4: float) -> float:
+    def energy(self, u: ArrayLike, *theta: float) -> float:
         """Total nonlinear strain energy (J) at state ``u``."""
-        H = self.geometry(float(theta1), float(theta4)).H
+        H = self.geometry(*(float(x) for x in theta)).H
         Wp, Vp = H @ np.asarray(u, float)
         return float(np.sum((0.5 * Vp * Wp**2 + 0.125 * Wp**4) * self._wE))

@@ -17,17 +17,17 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from .errors import FivebarError
+from .errors import FivebarError, ParameterError
+from .linkage import Linkage, Material, Section, linkage_from_toml
 
-__all__ = ["Motor", "Params", "ParameterError", "load_params", "DEFAULT_PARAMS_PATH"]
+__all__ = ["Motor", "Params", "load_params", "DEFAULT_PARAMS_PATH", "FOURBAR_PARAMS_PATH"]
 
 #: The parameter file shipped with the package (``fivebar/data/wang2011.toml``, package data
 #: read through ``importlib.resources``; ``data/wang2011.toml`` of the repository links to it).
 DEFAULT_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "wang2011.toml"))
-
-
-class ParameterError(FivebarError, ValueError):
-    """A parameter file or override holds a missing, unknown or invalid entry."""
+#: A four-bar crank-rocker's description, to layer over the defaults:
+#: ``load_params([DEFAULT_PARAMS_PATH, FOURBAR_PARAMS_PATH])`` (``fivebar/data/fourbar.toml``).
+FOURBAR_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "fourbar.toml"))
 
 
 # --- the schema: dotted TOML key -> (rule, unit) ---------------------------------------------
@@ -46,11 +46,10 @@ _MOTOR_KEYS = {
 _OPTIONAL_MOTOR_KEYS = {"stall_torque": ("pos", "N m"), "rated_current": ("pos", "A")}
 
 _SCHEMA: dict[str, tuple[Any, str]] = {
-    **{f"geometry.{k}": ("pos", "m") for k in ("L1", "L2", "L3", "L4", "L5", "width", "thickness")},
+    "geometry.width": ("pos", "m"),
+    "geometry.thickness": ("pos", "m"),
     "material.rho": ("pos", "kg/m^3"),
     "material.E": ("pos", "Pa"),
-    "masses.m01": ("nonneg", "kg"),
-    "masses.m02": ("nonneg", "kg"),
     "simulation.theta1_0": ("real", "rad"),
     "simulation.theta4_0": ("real", "rad"),
     "simulation.newmark_sigma": ("real", "-"),
@@ -82,6 +81,8 @@ _SCHEMA: dict[str, tuple[Any, str]] = {
 }
 _OPTIONAL = {f"motor{i}.{k}": v for i in (1, 2) for k, v in _OPTIONAL_MOTOR_KEYS.items()}
 _ALL_KEYS = {**_SCHEMA, **_OPTIONAL}
+#: sections whose entries are free names (the numbers a linkage description refers to)
+_OPEN = {"geometry": ("pos", "m"), "masses": ("nonneg", "kg")}
 
 _RULE_TEXT = {
     "pos": "a positive number",
@@ -102,7 +103,7 @@ def _describe(rule: Any, unit: str) -> str:
 
 def _check(key: str, value: Any) -> Any:
     """Validate one entry; return it as float, int or str."""
-    rule, unit = _ALL_KEYS[key]
+    rule, unit = _ALL_KEYS[key] if key in _ALL_KEYS else _OPEN[key.split(".", 1)[0]]
     bad = ParameterError(f"{key} = {value!r} is not allowed: it must be {_describe(rule, unit)}")
     if isinstance(rule, tuple):
         if not isinstance(value, str) or value not in rule[1]:
@@ -186,20 +187,18 @@ class Params:
 
     Build it with :func:`load_params`; derive variants with :meth:`replace`.  ``meta`` maps
     each dotted key (``"geometry.L1"``) to its provenance from the TOML file (printed value
-    and source, or the assumption's reason and alternative).
+    and source, or the assumption's reason and alternative).  ``linkage`` is the linkage
+    description (:class:`fivebar.linkage.Linkage`) of the ``[linkage]`` section.  The entries
+    of ``[geometry]`` and ``[masses]`` that the description refers to are attributes too
+    (``params.L5``, ``params.m01`` for the paper's file), and so is each link's length by the
+    link's name (``params.L2``).
     """
 
-    L1: float
-    L2: float
-    L3: float
-    L4: float
-    L5: float
+    linkage: Linkage
     width: float
     thickness: float
     rho: float
     E: float
-    m01: float
-    m02: float
     theta1_0: float
     theta4_0: float
     newmark_sigma: float
@@ -226,6 +225,23 @@ class Params:
     yield_stress: float
     values: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
     meta: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, compare=False, repr=False)
+    #: the flat entries the linkage description refers to (its numbers by dotted key)
+    references: frozenset[str] = field(default=frozenset(), compare=False, repr=False)
+
+    def __getattr__(self, name: str) -> Any:
+        # the free entries of [geometry] and [masses] and the links' lengths, read-only
+        if name.startswith("_") or name in ("values", "meta", "linkage", "references"):
+            raise AttributeError(name)
+        for link in self.linkage.links:
+            if link.name == name:
+                return link.length
+        for section in _OPEN:
+            if f"{section}.{name}" in self.references:
+                return self.values[f"{section}.{name}"]
+        raise AttributeError(
+            f"'Params' object has no attribute {name!r} (the linkage {self.linkage.name!r} has the links "
+            f"{list(self.linkage.link_names)})"
+        )
 
     # --- derived quantities ------------------------------------------------------------------
     @property
@@ -250,29 +266,35 @@ class Params:
         return 2.0 * math.pi / self.crank_speed
 
     @property
-    def lengths(self) -> tuple[float, float, float, float, float]:
-        """(L1, L2, L3, L4, L5) in m."""
-        return (self.L1, self.L2, self.L3, self.L4, self.L5)
+    def lengths(self) -> tuple[float, ...]:
+        """The links' lengths in the order of the chain, then the frame's (m): (L1, ..., L5)
+        for the paper's five-bar."""
+        return self.linkage.lengths
 
     # --- variants ----------------------------------------------------------------------------
     def replace(self, **changes: Any) -> "Params":
         """Return a copy with some entries changed, validated like the file.
 
         Keys are dotted TOML keys (``**{"motor1.m0": 2.0}``) or bare names that are unique
-        (``crank_speed_rpm=120``, ``L1=0.25``).
+        (``crank_speed_rpm=120``, ``L1=0.25``); ``linkage=`` takes a whole description (the
+        ``[linkage]`` table of a file, as a dict).
 
         >>> p = load_params().replace(crank_speed_rpm=120)
         """
         values = dict(self.values)
         for key, value in changes.items():
-            values[_resolve_key(key)] = value
+            if key == "linkage":  # a whole description, as the [linkage] table of a file
+                values["linkage"] = value
+                continue
+            values[_resolve_key(key, values)] = value
         return _build(values, dict(self.meta))
 
 
-def _resolve_key(key: str) -> str:
-    if key in _ALL_KEYS:
+def _resolve_key(key: str, values: Mapping[str, Any] = {}) -> str:
+    if key in _ALL_KEYS or (key.split(".", 1)[0] in _OPEN and "." in key):
         return key
-    matches = [k for k in _ALL_KEYS if k.split(".", 1)[1] == key]
+    known = list(_ALL_KEYS) + [k for k in values if k.split(".", 1)[0] in _OPEN]
+    matches = [k for k in known if k.split(".", 1)[1] == key]
     if len(matches) == 1:
         return matches[0]
     if len(matches) > 1:
@@ -290,6 +312,10 @@ def _flatten(doc: Mapping[str, Any], origin: str) -> tuple[dict[str, Any], dict[
     for section, entries in doc.items():
         if not isinstance(entries, Mapping):
             raise ParameterError(f"{origin}: top-level entry {section!r} must be a [section]")
+        if section == "linkage":  # the description, read whole (a later file's replaces it)
+            values["linkage"] = entries
+            meta["linkage"] = {"file": origin}
+            continue
         for name, entry in entries.items():
             key = _resolve_key(f"{section}.{name}")
             if isinstance(entry, Mapping):
@@ -313,6 +339,11 @@ def _build(values: Mapping[str, Any], meta: Mapping[str, Mapping[str, Any]]) -> 
     for key in _OPTIONAL:
         if key in values:
             checked[key] = _check(key, values[key])
+    for key in values:
+        if key.split(".", 1)[0] in _OPEN:
+            checked[key] = _check(key, values[key])
+    if "linkage" not in values:
+        raise ParameterError("the [linkage] section is missing: it describes the links, joints and drives")
 
     a = {k.split(".", 1)[1]: v for k, v in checked.items() if k.startswith("assumptions.")}
 
@@ -332,8 +363,27 @@ def _build(values: Mapping[str, Any], meta: Mapping[str, Mapping[str, Any]]) -> 
         if k.split(".", 1)[0] in ("geometry", "material", "masses", "simulation")
     }
     own = {f.name for f in fields(Params)}
+    top = {k: v for k, v in top.items() if k in own}
     top.update({k: v for k, v in a.items() if k in own})
-    return Params(**top, motor1=motor(1), motor2=motor(2), values=checked, meta=dict(meta))
+
+    used: set[str] = set()
+
+    def resolve(ref: str) -> Any:
+        key = _resolve_key(ref, checked)
+        used.add(key)
+        if key not in checked:
+            raise ParameterError(f"{key} is missing from the parameter file, and the linkage refers to it")
+        return checked[key]
+
+    linkage = linkage_from_toml(
+        values["linkage"], resolve,
+        Section(checked["geometry.width"], checked["geometry.thickness"], a["bending_depth"]),
+        Material(checked["material.rho"], checked["material.E"]),
+        motors=("motor1", "motor2"),
+    )
+    checked["linkage"] = values["linkage"]
+    return Params(**top, linkage=linkage, motor1=motor(1), motor2=motor(2), values=checked, meta=dict(meta),
+                  references=frozenset(used))
 
 
 def load_params(
@@ -388,7 +438,7 @@ def load_params(
         for k, mk in m.items():
             meta[k] = {**meta.get(k, {}), **mk}
     for key, value in (overrides or {}).items():
-        k = _resolve_key(key)
+        k = _resolve_key(key, values)
         values[k] = value
         meta[k] = {**meta.get(k, {}), "source": "override in code"}
     return _build(values, meta)

@@ -22,7 +22,7 @@ from matplotlib.axes import Axes
 from numpy.typing import ArrayLike
 
 from .errors import InputError
-from .kinematics import LINKS, positions
+from .kinematics import positions
 from .params import Params
 
 __all__ = [
@@ -235,11 +235,25 @@ def _scalar(name: str, value: ArrayLike) -> float:
     return float(a)
 
 
+def _mass_labels(params: Params) -> dict[str, str]:
+    """Pin -> label of its lumped mass: the name of the [masses] entry it refers to ($m_{01}$
+    for the paper's B), else $m_B$."""
+    refs = params.values.get("linkage", {}).get("joints", {})
+    out = {}
+    for j, m in params.linkage.masses.items():
+        if m <= 0:
+            continue
+        ref = refs.get(j, {}).get("mass")
+        name = ref.split(".", 1)[1] if isinstance(ref, str) else j
+        out[j] = f"$m_{{{name[1:] if name[:1] == 'm' and len(name) > 1 else name}}}$"
+    return out
+
+
 def draw_linkage(
     ax: Axes,
     params: Params,
     theta1: float,
-    theta4: float,
+    theta4: float | None = None,
     *,
     mode: int = 1,
     color: str | None = None,
@@ -252,7 +266,7 @@ def draw_linkage(
     scale: float = 1e3,
     zorder: float = 2.0,
 ) -> dict[str, Any]:
-    """Draw the five-bar of Figure 1 in one configuration.
+    """Draw the linkage of the description (the five-bar of Figure 1) in one configuration.
 
     ``draw_linkage(ax, params, 0.0, 0.0, labels=True, masses=True)`` draws the labelled
     mechanism; ``draw_linkage(ax, params, t1, t4, color="0.8", lw=1, joints=False,
@@ -265,7 +279,8 @@ def draw_linkage(
     params
         The parameter set (lengths in m).
     theta1, theta4
-        Crank angles (rad) of AB and ED: one configuration, scalars.
+        Crank angles (rad) of AB and ED: one configuration, scalars (``theta1`` alone for a
+        linkage with one driven crank).
     mode
         Assembly mode of :func:`fivebar.kinematics.positions`.
     color
@@ -297,32 +312,38 @@ def draw_linkage(
     fivebar.kinematics.GeometryError
         If the loop cannot close at these crank angles.
     """
-    t1, t4 = _scalar("theta1", theta1), _scalar("theta4", theta4)
-    P = {k: scale * np.asarray(v) for k, v in positions(params, t1, t4, mode).items()}
+    th = [_scalar("theta1", theta1)] + ([] if theta4 is None else [_scalar("theta4", theta4)])
+    lk = params.linkage
+    P = {k: scale * np.asarray(v) for k, v in positions(params, *th, mode=mode).items()}
     out: dict[str, Any] = {"links": {}, "joints": [], "ground": [], "masses": [], "labels": {}}
-    centre = np.mean([P[k] for k in "ABCDE"], axis=0)
+    chain, g0, g1 = lk.chain, lk.chain[0], lk.chain[-1]
+    centre = np.mean([P[k] for k in chain], axis=0)
+    frame_name = f"L{len(lk.links) + 1}" if all(k.name == f"L{i + 1}" for i, k in enumerate(lk.links)) else "frame"
+    colors = {k.name: LINK_COLORS.get(k.name, list(OKABE_ITO.values())[(i + 1) % len(OKABE_ITO)])
+              for i, k in enumerate(lk.links)}
+    colors[frame_name] = LINK_COLORS["L5"]
 
     if ground:
-        (frame,) = ax.plot(*np.transpose([P["A"], P["E"]]), ls="--", lw=1.0, color=LINK_COLORS["L5"], zorder=zorder - 0.5)
-        out["links"]["L5"] = frame
-        size = 0.08 * scale * params.L5
-        for k in "AE":
+        (frame,) = ax.plot(*np.transpose([P[g0], P[g1]]), ls="--", lw=1.0, color=LINK_COLORS["L5"], zorder=zorder - 0.5)
+        out["links"][frame_name] = frame
+        size = 0.08 * scale * lk.lengths[-1]
+        for k in (g0, g1):
             x, y = P[k]
             tri = np.array([[x, y], [x - size / 2, y - size], [x + size / 2, y - size]])
             out["ground"].append(ax.fill(*tri.T, facecolor="none", edgecolor="0.2", lw=1.0, hatch="///", zorder=zorder - 0.5)[0])
-    for name, (s, e) in LINKS.items():
-        c = LINK_COLORS[name] if color is None else color
+    for name, (s, e) in lk.link_ends.items():
+        c = colors[name] if color is None else color
         (line,) = ax.plot(*np.transpose([P[s], P[e]]), color=c, lw=lw, alpha=alpha, solid_capstyle="round", zorder=zorder)
         out["links"][name] = line
     if joints:
-        xy = np.array([P[k] for k in "ABCDE"])
+        xy = np.array([P[k] for k in chain])
         out["joints"].append(
             ax.scatter(*xy.T, s=28, facecolor="white", edgecolor="black", linewidth=1.0, alpha=alpha, zorder=zorder + 1)
         )
     # joint labels sit outside the loop, in the direction from its centre to the joint
-    away = {k: (P[k] - centre) / (np.hypot(*(P[k] - centre)) or 1.0) for k in "ABCDE"}
+    away = {k: (P[k] - centre) / (np.hypot(*(P[k] - centre)) or 1.0) for k in chain}
     if masses:
-        for k, name in (("B", "$m_{01}$"), ("C", "$m_{02}$")):
+        for k, name in _mass_labels(params).items():
             out["masses"].append(ax.scatter(*P[k], s=110, color="black", alpha=alpha, zorder=zorder + 0.5))
             if labels:  # beside the joint, square to its letter, on the right
                 side = np.array([away[k][1], -away[k][0]])
@@ -332,22 +353,22 @@ def draw_linkage(
                     ha="left", va="center", fontsize=MIN_FONT_PT,
                 )
     if labels:
-        for k in "ABCDE":
+        for k in chain:
             out["labels"][k] = ax.annotate(
                 k, P[k], xytext=tuple(16 * away[k]), textcoords="offset points", ha="center", va="center", fontweight="bold"
             )
-        ends = dict(LINKS, L5=("A", "E"))
+        ends = dict(lk.link_ends, **{frame_name: (g0, g1)})
         for name, (s, e) in ends.items():
             # the frame's label sits at 3/4 of AE, clear of B at theta1 = 0 when L1 = L5/2
-            mid = P[s] + (0.75 if name == "L5" else 0.5) * (P[e] - P[s])
+            mid = P[s] + (0.75 if name == frame_name else 0.5) * (P[e] - P[s])
             t = (P[e] - P[s]) / np.hypot(*(P[e] - P[s]))
             n = np.array([-t[1], t[0]])
             if np.dot(n, mid - centre) < 0:
                 n = -n
-            sub = name[1:]
+            text = f"$L_{name[1:]}$" if name[:1] == "L" and name[1:].isdigit() else name
             out["labels"][name] = ax.annotate(
-                f"$L_{sub}$", mid, xytext=tuple((20 if name == "L5" else 12) * n), textcoords="offset points", ha="center", va="center",
-                color=LINK_COLORS[name] if color is None else color,
+                text, mid, xytext=tuple((20 if name == frame_name else 12) * n), textcoords="offset points", ha="center", va="center",
+                color=colors[name] if color is None else color,
             )
     if labels:  # the labels lie outside the joints' bounding box, leave room for them
         ax.margins(0.1)

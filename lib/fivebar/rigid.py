@@ -48,13 +48,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import InputError
-from .kinematics import LINKS, crank_laws, rigid_state
+from .kinematics import crank_laws, rigid_state
 from .params import Params
 
 __all__ = [
@@ -70,9 +70,6 @@ __all__ = [
     "motor_torques",
 ]
 
-_BARS = tuple(LINKS)  # "L1".."L4"
-
-
 @dataclass(frozen=True)
 class InertiaModel:
     """Masses and inertias of the rigid five-bar (SI).
@@ -80,12 +77,12 @@ class InertiaModel:
     Attributes
     ----------
     link_mass
-        Mass of each moving link "L1".."L4" (kg).
+        Mass of each moving link of the description ("L1".."L4") (kg).
     link_inertia
         Moment of inertia of each link about its centre of mass, normal to the plane (kg m^2).
     link_com
         Position of each link's centre of mass as a fraction of its length from its start joint
-        (:data:`fivebar.kinematics.LINKS`); 0.5 for a uniform bar.
+        (the link's ``start``); 0.5 for a uniform bar (the default, ``None``).
     m01, m02
         Lumped masses at B and C (kg).
     J1, J2
@@ -95,16 +92,19 @@ class InertiaModel:
 
     link_mass: Mapping[str, float]
     link_inertia: Mapping[str, float]
-    link_com: Mapping[str, float] = field(default_factory=lambda: {k: 0.5 for k in _BARS})
+    link_com: Mapping[str, float] | None = None
     m01: float = 0.0
     m02: float = 0.0
     J1: float = 0.0
     J2: float = 0.0
 
     def __post_init__(self) -> None:
+        bars = list(self.link_mass)
+        if self.link_com is None:
+            object.__setattr__(self, "link_com", {k: 0.5 for k in bars})
         for name, table in (("link_mass", self.link_mass), ("link_inertia", self.link_inertia), ("link_com", self.link_com)):
-            if set(table) != set(_BARS):
-                raise InputError(f"InertiaModel.{name} has keys {sorted(table)}: it must have exactly {list(_BARS)}")
+            if set(table) != set(bars):
+                raise InputError(f"InertiaModel.{name} has keys {sorted(table)}: it must have exactly {bars}")
             for k, v in table.items():
                 _nonneg(f"InertiaModel.{name}[{k!r}]", v)
         for name in ("m01", "m02", "J1", "J2"):
@@ -139,9 +139,10 @@ def inertia_model(params: Params, shaft_inertia: bool = False) -> InertiaModel:
     -------
     InertiaModel
     """
-    lengths = dict(zip(_BARS, params.lengths[:4]))
-    mass = {k: params.rho * params.A * L for k, L in lengths.items()}
-    inertia = {k: mass[k] * lengths[k] ** 2 / 12.0 for k in _BARS}
+    links = params.linkage.links
+    lengths = {k.name: k.length for k in links}
+    mass = {k.name: k.material.rho * k.section.area * k.length for k in links}
+    inertia = {k: mass[k] * lengths[k] ** 2 / 12.0 for k in lengths}
 
     def rotor(m) -> float:
         J = m.J0
@@ -179,7 +180,7 @@ def _terms(
         np.stack([t4, t4, t4]), np.stack([zero, one, w4]), np.stack([zero, zero, zero]),
         mode,
     )
-    points = [st.point(k, model.link_com[k]) + (model.link_mass[k],) for k in _BARS]
+    points = [st.point(k, model.link_com[k]) + (model.link_mass[k],) for k in model.link_mass]
     points += [(st.pos[j], st.vel[j], st.acc[j], m) for j, m in (("B", model.m01), ("C", model.m02))]
     grav = params.gravity
     M = np.zeros(t1.shape + (2, 2))
@@ -194,7 +195,7 @@ def _terms(
         g += m * grav * J[..., 1, :]
         T += 0.5 * m * np.sum(v[2] ** 2, axis=-1)
         V += m * grav * p[0][..., 1]
-    for k in _BARS:
+    for k in model.link_mass:
         I = model.link_inertia[k]
         j = np.stack([st.omega[k][0], st.omega[k][1]], axis=-1)  # (..., 2)
         M += I * j[..., :, None] * j[..., None, :]

@@ -114,12 +114,7 @@ class Setup:
                 raise InputError(f"{name} = {getattr(self, name)!r} is not allowed: give True or False")
         epl = self.elements_per_link
         if epl is not None:
-            epl = tuple(epl)
-            if len(epl) != 4 or any(isinstance(k, bool) or int(k) != k or k < 1 for k in epl):
-                raise InputError(
-                    f"elements_per_link = {self.elements_per_link!r} is not allowed: give four integers >= 1 (L1..L4)"
-                )
-            epl = tuple(int(k) for k in epl)
+            epl = p.linkage.check_mesh(epl)
         scheme = default_scheme(p) if self.scheme is None else self.scheme
         if not isinstance(scheme, Scheme):
             raise InputTypeError(

@@ -48,7 +48,6 @@ from .errors import FivebarError, InputError
 from .dynamics import LinkageDynamics
 from .eigen import frozen_modes
 from .elements import shape_functions
-from .kinematics import LINKS
 from .newmark import NewtonConvergenceError, Scheme, integrate
 from .params import Params
 from .setup import Setup, as_setup, default_scheme, min_steps_per_period, scheme_name
@@ -143,7 +142,8 @@ class SteadyState:
         Parameters
         ----------
         link
-            "L1", "L2", "L3" or "L4" (Figure 6 shows L2 and L3).
+            A link of the description: "L1", "L2", "L3" or "L4" for the five-bar (Figure 6
+            shows L2 and L3).
         direction
             "transverse": the midpoint's elastic displacement projected on the link's normal
             (the left normal of B to C for L2, C to D for L3); it includes the elastic motion
@@ -151,20 +151,21 @@ class SteadyState:
             the transverse deflection relative to the chord through the link's deflected ends
             (pure bending, what a mid-span strain gauge senses).
         """
-        if link not in LINKS:
-            raise InputError(f"link = {link!r} is not allowed: use one of {list(LINKS)}")
+        names = self.dynamics.params.linkage.link_names
+        if link not in names:
+            raise InputError(f"link = {link!r} is not allowed: use one of {list(names)}")
         if direction not in _DIRECTIONS:
             raise InputError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
         m = self.dynamics.model
         U = self.dynamics.expand(self.u)
-        th1, th4 = self._angles()
-        ax, tr = m.link_displacement(U, th1, th4, link, 0.5)
+        th = self._angles()
+        ax, tr = m.link_displacement(U, *th, link, 0.5)
         if direction == "longitudinal":
             return 1e3 * ax
         if direction == "transverse":
             return 1e3 * tr
-        _, tr0 = m.link_displacement(U, th1, th4, link, 0.0)
-        _, tr1 = m.link_displacement(U, th1, th4, link, 1.0)
+        _, tr0 = m.link_displacement(U, *th, link, 0.0)
+        _, tr1 = m.link_displacement(U, *th, link, 1.0)
         return 1e3 * (tr - 0.5 * (tr0 + tr1))
 
     def peak_to_peak(self, link: str, direction: str = "transverse") -> float:
@@ -183,8 +184,7 @@ class SteadyState:
         if key not in self._cache:
             dyn = self.dynamics
             m, p = dyn.model, dyn.params
-            th1, th4 = self._angles()
-            q = m.element_displacements(dyn.expand(self.u), th1, th4)  # (S+1, nel, 8)
+            q = m.element_displacements(dyn.expand(self.u), *self._angles())  # (S+1, nel, 8)
             out: dict[str, float] = {}
             for i, el in enumerate(m.elements):
                 N2 = shape_functions(np.linspace(0.0, el.length, points), el.length, derivative=2)
@@ -547,8 +547,6 @@ class _OrbitMonodromy:
 
 #: first S of the doubling sequence of ``steady_state(..., tol=...)``, and the largest it tries
 _TOL_FIRST_STEPS, _TOL_MAX_STEPS = 50, 12800
-#: the links whose midpoint deflection ``tol`` bounds (Figure 6)
-_TOL_LINKS = ("L2", "L3")
 
 
 def steady_state(
@@ -649,7 +647,7 @@ def _deflection_change(coarse: SteadyState, fine: SteadyState) -> float:
     """Largest change of the transverse midpoint deflection of L2 and L3 from ``coarse`` (S) to
     ``fine`` (2 S) at the S + 1 common samples, relative to the finer peak-to-peak value."""
     out = 0.0
-    for link in _TOL_LINKS:
+    for link in fine.dynamics.params.linkage.couplers:  # the links between two pins (Figure 6: L2, L3)
         yc, yf = coarse.midpoint(link), fine.midpoint(link)
         out = max(out, float(np.abs(yc - yf[::2]).max() / max(np.ptp(yf), 1e-300)))
     return out

@@ -45,7 +45,6 @@ from .steady import SteadyState, shooting
 __all__ = ["SweepError", "clear_cache", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
 
 _CACHE: dict[tuple, dict[str, float]] = {}
-_LINKS = ("L1", "L2", "L3", "L4")
 
 
 class SweepError(FivebarError, ValueError):
@@ -60,7 +59,7 @@ def clear_cache() -> None:
 def sweep_point(
     params: Params | Setup,
     crank_speed_rpm: float,
-    links: tuple[str, ...] = ("L2", "L3"),
+    links: tuple[str, ...] | None = None,
     direction: str = "transverse",
     steps_per_period: int | None = None,
     scheme: Scheme | None = None,
@@ -83,6 +82,8 @@ def sweep_point(
     qs = np.linalg.solve(sd.K, sd.F[..., None])[..., 0]  # K(t)^-1 F(t) at the S steps
     qs = np.concatenate([qs, qs[:1]])
     quasi = SteadyState(dyn, st.t, qs, np.zeros_like(qs), "quasi-static", 0)
+    if links is None:  # the description's couplers (L2 and L3 of the five-bar, Figure 6)
+        links = setup.params.linkage.couplers
     out = {"speed (r/min)": float(crank_speed_rpm), "crank frequency (Hz)": float(crank_speed_rpm) / 60.0}
     for link in links:
         a, q = st.peak_to_peak(link, direction), quasi.peak_to_peak(link, direction)
@@ -98,7 +99,7 @@ def speed_sweep(
     params: Params | Setup,
     speeds_rpm: ArrayLike,
     *,
-    links: Sequence[str] = ("L2", "L3"),
+    links: Sequence[str] | None = None,
     direction: str = "transverse",
     steps_per_period: int | None = None,
     scheme: Scheme | None = None,
@@ -125,7 +126,8 @@ def speed_sweep(
     speeds_rpm : array_like
         Crank speeds (r/min), positive; both cranks turn at them (``speed_ratio`` applies).
     links : sequence of str
-        Links whose midpoint is recorded ("L1".."L4"; Figure 6: L2 and L3).
+        Links whose midpoint is recorded; ``None``: the description's couplers (the links
+        between two pins: L2 and L3 of the five-bar, as Figure 6).
     direction : str
         As :meth:`fivebar.steady.SteadyState.midpoint` ("transverse", "longitudinal", "chord").
     steps_per_period : int, optional
@@ -150,10 +152,6 @@ def speed_sweep(
     x = np.atleast_1d(np.asarray(speeds_rpm, float))
     if x.ndim != 1 or x.size == 0 or not np.all(np.isfinite(x)) or np.any(x <= 0):
         raise SweepError(f"speeds_rpm = {speeds_rpm!r} is not allowed: give positive crank speeds (r/min)")
-    links = tuple(links)
-    bad = [k for k in links if k not in _LINKS]
-    if bad or not links:
-        raise SweepError(f"links = {links!r} is not allowed: use some of {list(_LINKS)}")
     if direction not in ("transverse", "longitudinal", "chord"):
         raise SweepError(f"direction = {direction!r} is not allowed: use 'transverse', 'longitudinal' or 'chord'")
     if executor is not None and not callable(getattr(executor, "submit", None)):
@@ -162,6 +160,11 @@ def speed_sweep(
         nonlinear = False
     base = as_setup(params, steps_per_period=steps_per_period, scheme=scheme, nonlinear=nonlinear, motors=motors)
     params = base.params
+    names = params.linkage.link_names
+    links = params.linkage.couplers if links is None else tuple(links)
+    bad = [k for k in links if k not in names]
+    if bad or not links:
+        raise SweepError(f"links = {links!r} is not allowed: use some of {list(names)}")
     opts = (links, direction, base.steps_per_period, base.scheme, base.nonlinear, base.motors,
             base.elements_per_link)
     key = lambda s: (params, float(s), opts)  # noqa: E731
