@@ -133,7 +133,7 @@ def main() -> None:
     args = ap.parse_args()
     doc = {
         "command": "python benchmarks/nonlinear_vs_multibody.py",
-        "units": "transverse midpoint peak-to-peak, m; error_vs_multibody relative to multibody_finest",
+        "units": "transverse midpoint peak-to-peak, mm; error_vs_multibody relative to multibody_finest",
         "ked": {"mesh": MESH, "steps_per_period": S, "fine_mesh": FINE, "fine_steps_per_period": 2 * S,
                 "scheme": "GeneralizedAlpha(0.8)", "motors": False, "bending_depth": 0.002},
         "multibody": {"levels": [[MESH, 400], [FINE, 800], [FINE, 1600]], "tol": 1e-3,
