@@ -302,9 +302,12 @@ class LinkageDynamics:
 
     @property
     def stiffness_damping_time(self) -> float:
-        """beta (s) of the stiffness-proportional damping C = beta K: 2 zeta / omega_1, with
-        omega_1 the lowest frozen mode at the initial crank angles (the definition of the
-        multibody model's Kelvin-Voigt damping time, :func:`fivebar.multibody.multibody_steady_state`)."""
+        """The damping time beta (s) of the stiffness-proportional damping, 2 zeta / omega_1.
+
+        omega_1 is the lowest frozen mode at the initial crank angles, as in the definition of
+        the multibody model's Kelvin-Voigt damping time
+        (:func:`fivebar.multibody.multibody_steady_state`).
+        """
         p, k = self.params, self.keep
         M, K = self.model.matrices(p.theta1_0, p.theta4_0)
         w2 = frozen_modes(M[np.ix_(k, k)], K[np.ix_(k, k)])[0]

@@ -108,7 +108,7 @@ def _slopes(L: float) -> tuple[NDArray, NDArray]:
     return _slopes_of(float(L))
 
 
-#: the forms of the membrane strain (errata E-strain): index in the compiled kernel
+#: The forms of the membrane strain (errata E30), in the order of their index in the compiled kernel.
 STRAIN_MEASURES = ("literal", "corotated", "uniform")
 
 
