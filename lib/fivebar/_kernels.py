@@ -171,20 +171,25 @@ def nrm2(x):
 
 # --- nonlinear element force and tangent (fivebar.nonlinear) ------------------------------------
 @njit(cache=True)
-def nl_force(u, Ge, ae, wE, idx, f, Kt, tangent):
+def nl_force(u, Ge, ae, wE, idx, measure, f, Kt, tangent):
     r"""Internal nonlinear force ``f`` (n,) and, if ``tangent``, its Jacobian ``Kt`` (n, n),
-    element by element (see :mod:`fivebar.nonlinear` for the formulas).
+    element by element: the loop form of ``fivebar.nonlinear._force`` (see
+    :mod:`fivebar.nonlinear` for the formulas).
 
     ``Ge`` (n_el, n_gauss, 8): slope rows :math:`\mathbf G_{ep}` in the element's global DOFs;
     ``ae`` (n_el, 8): stretch rows :math:`\mathbf a_e`; ``wE`` (n_el, n_gauss): EA times the
     Gauss weights; ``idx`` (n_el, 8): index of each element DOF in ``u``, or ``n`` for a DOF
-    held at zero.
+    held at zero; ``measure``: the strain measure's index in
+    ``fivebar.nonlinear.STRAIN_MEASURES`` (0 literal, 1 corotated, 2 uniform).
     """
     n = u.size
     nel, npts, _ = Ge.shape
     ue = np.empty(8)
     fl = np.empty(8)
-    c = np.empty(8)
+    b = np.empty(8)
+    cb = np.empty(8)
+    D = np.empty(8)
+    W = np.empty(npts)
     Kl = np.empty((8, 8))
     for i in range(n):
         f[i] = 0.0
@@ -199,34 +204,64 @@ def nl_force(u, Ge, ae, wE, idx, f, Kt, tangent):
             ue[i] = u[d] if d < n else 0.0
             V += ae[e, i] * ue[i]
             fl[i] = 0.0
-            c[i] = 0.0
+            b[i] = 0.0
+            cb[i] = 0.0
         if tangent:
             for i in range(8):
                 for j in range(8):
                     Kl[i, j] = 0.0
-        I2 = 0.0
+        EAL = 0.0
+        phi = 0.0
+        ebar = 0.0
         for p in range(npts):
-            W = 0.0
+            Wp = 0.0
             for i in range(8):
-                W += Ge[e, p, i] * ue[i]
+                Wp += Ge[e, p, i] * ue[i]
+            W[p] = Wp
             w = wE[e, p]
-            cw = w * W
-            c0 = (V + 0.5 * W * W) * cw
-            I2 += cw * W
+            EAL += w
+            phi += w * Wp
+            ebar += 0.5 * w * Wp * Wp
             for i in range(8):
-                fl[i] += c0 * Ge[e, p, i]
+                b[i] += w * Ge[e, p, i]
+                cb[i] += w * Wp * Ge[e, p, i]
+        phi /= EAL
+        ebar /= EAL
+        for i in range(8):
+            b[i] /= EAL
+            cb[i] /= EAL
+        for p in range(npts):
+            w = wE[e, p]
+            if measure == 0:
+                ep = 0.5 * W[p] * W[p]
+                for i in range(8):
+                    D[i] = W[p] * Ge[e, p, i]
+            elif measure == 1:
+                s = W[p] - phi
+                ep = 0.5 * (phi * phi + s * s)
+                for i in range(8):
+                    D[i] = s * Ge[e, p, i] + (phi - s) * b[i]
+            else:
+                ep = ebar
+                for i in range(8):
+                    D[i] = cb[i]
+            N = w * (V + ep)
+            we = w * ep
+            for i in range(8):
+                fl[i] += we * ae[e, i] + N * D[i]
             if tangent:
-                dk = w * (V + 1.5 * W * W)
                 for i in range(8):
                     gi = Ge[e, p, i]
-                    c[i] += cw * gi
-                    dgi = dk * gi
                     for j in range(8):
-                        Kl[i, j] += dgi * Ge[e, p, j]
+                        gj = Ge[e, p, j]
+                        h = gi * gj
+                        if measure == 1:
+                            h += 2.0 * b[i] * b[j] - gi * b[j] - b[i] * gj
+                        Kl[i, j] += w * (D[i] * (ae[e, j] + D[j]) + ae[e, i] * D[j]) + N * h
         for i in range(8):
             d = idx[e, i]
             if d < n:
-                f[d] += fl[i] + 0.5 * I2 * ae[e, i]
+                f[d] += fl[i]
         if tangent:
             for i in range(8):
                 di = idx[e, i]
@@ -235,7 +270,7 @@ def nl_force(u, Ge, ae, wE, idx, f, Kt, tangent):
                 for j in range(8):
                     dj = idx[e, j]
                     if dj < n:
-                        Kt[di, dj] += Kl[i, j] + ae[e, i] * c[j] + c[i] * ae[e, j]
+                        Kt[di, dj] += Kl[i, j]
 
 
 # --- the time loop ----------------------------------------------------------------------------------
@@ -249,10 +284,10 @@ def _tangent(Mb, C, K, Kt, cM, cC, cK, nonlin, St):
 
 
 @njit(cache=True)
-def _full_lu(u, G, Ae, wE, idx, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv):
+def _full_lu(u, G, Ae, wE, idx, measure, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv):
     """The consistent tangent at ``u`` (f_nl and K_t evaluated) into ``St``, factorised;
     returns ``(ok, dmin, dmax)``, ok False if singular."""
-    nl_force(u, G, Ae, wE, idx, fnl, Kt, True)
+    nl_force(u, G, Ae, wE, idx, measure, fnl, Kt, True)
     _tangent(Mb, C, K, Kt, cM, cC, cK, True, St)
     dmin, dmax = lu_factor(St, piv)
     return not singular(dmin, dmax), dmin, dmax
@@ -273,7 +308,7 @@ def _linear_lu(LUc, pivc, have, i, Mb, C, K, Kt, cM, cC, cK):
 
 @njit(cache=True)
 def march(Ms, Cs, Ks, Fs, k0, m_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af,
-          nonlin, Ge, ae, wE, idx, Kt0,
+          nonlin, Ge, ae, wE, idx, measure, Kt0,
           rtol, xtol, atol, max_iter, full,
           LUc, pivc, have,
           sens, Pu, Pv, Pa,
@@ -374,7 +409,7 @@ def march(Ms, Cs, Ks, Fs, k0, m_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af
             k_it = 0
             du_norm = math.inf
             while True:
-                nl_force(u1, G, Ae, wE, idx, fnl, Kt, False)
+                nl_force(u1, G, Ae, wE, idx, measure, fnl, Kt, False)
                 for i in range(n):
                     a1[i] = (u1[i] - ut[i]) / bdt2
                     v1[i] = vt[i] + gdt * a1[i]
@@ -400,7 +435,7 @@ def march(Ms, Cs, Ks, Fs, k0, m_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af
                     return NO_CONVERGENCE
                 if full:
                     # the tangent only now, when an update follows (not at the converged point)
-                    ok, dmin, dmax = _full_lu(u1, G, Ae, wE, idx, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv)
+                    ok, dmin, dmax = _full_lu(u1, G, Ae, wE, idx, measure, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv)
                     if not ok:
                         info[0], info[1], info[4], info[5] = j, t, dmin, dmax
                         return SINGULAR
@@ -419,7 +454,7 @@ def march(Ms, Cs, Ks, Fs, k0, m_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af
                 k_it += 1
             iters[j - 1] = k_it
             if sens:  # the consistent tangent at the converged u_{n+1}
-                ok, dmin, dmax = _full_lu(u1, G, Ae, wE, idx, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv)
+                ok, dmin, dmax = _full_lu(u1, G, Ae, wE, idx, measure, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv)
                 if not ok:
                     info[0], info[1], info[4], info[5] = j, t, dmin, dmax
                     return SINGULAR

@@ -23,7 +23,8 @@ with the period of the crank motion, while the rotor subsystem is forced at the 
 rotor frequencies, which are not commensurate with it.
 
 **Damping** (an assumption: the paper's ratios were "obtained through experiment" and are not
-printed).  At every instant, every mode of the frozen structure gets the damping ratio
+printed).  The parameter file's ``damping_model`` chooses between two forms.  ``"modal"``
+(the default): at every instant, every mode of the frozen structure gets the damping ratio
 :math:`\zeta`:
 
 .. math::
@@ -34,6 +35,11 @@ printed).  At every instant, every mode of the frozen structure gets the damping
     \boldsymbol\Phi^\top\mathbf K\boldsymbol\Phi = \operatorname{diag}(\omega_r^2)
 
 with :math:`\mathbf M, \mathbf K, \boldsymbol\Phi, \omega_r` those of the instant.
+``"stiffness"``: Rayleigh damping proportional to the stiffness of the deformation,
+:math:`\mathbf C(t) = \beta\mathbf K(t)`, :math:`\beta = 2\zeta/\omega_1` with
+:math:`\omega_1` the lowest frozen mode at the initial crank angles: mode :math:`r` gets
+:math:`\zeta\,\omega_r/\omega_1`, as the Kelvin-Voigt material damping of the multibody model
+(:mod:`fivebar.multibody`) gives it; the comparisons with that model use it.
 """
 
 from __future__ import annotations
@@ -191,8 +197,8 @@ class LinkageDynamics:
         scales with its square.  The cache key is the parameter set with the speed taken out,
         S, the mesh and the motors (no external force P); the arrays are read-only.
         """
-        if self._P is not None:
-            return self._sample(t)
+        if self._P is not None or self.params.damping_model == "stiffness":
+            return self._sample(t)  # (stiffness damping: K holds a term linear in the speed)
         p = self.params
         key = (_speed_free(p), self.steps, elements_per_link, bool(motors))
         try:
@@ -254,8 +260,58 @@ class LinkageDynamics:
         F = np.ascontiguousarray(-np.einsum("...ij,...j->...i", M, ur))
         if self._P is not None:
             F = F + np.array([np.asarray(self._P(ti), float) for ti in np.atleast_1d(t)]).reshape(F.shape)
-        C = modal_damping(M, K, self.params.damping_ratio)
+        if self.params.damping_model == "stiffness":
+            beta = self.stiffness_damping_time
+            Kb, Yb = (X[..., k[:, None], k[None, :]] for X in self._bending(laws, state))
+            C = np.ascontiguousarray(beta * Kb)
+            K = np.ascontiguousarray(K + beta * Yb)
+        else:
+            C = modal_damping(M, K, self.params.damping_ratio)
         return M, C, K, F
+
+    def _bending(self, laws, state) -> tuple[NDArray, NDArray]:
+        """The stiffness of the bending (and of the motor shafts) ``Kb`` and ``Yb = sum_e R_e^T
+        K_e dR_e/dt`` (..., n, n), ``K_e`` an element's bending stiffness and ``R_e`` (local <-
+        global) its frame, turning at its link's angular speed: Kelvin-Voigt damping of the
+        deformation rate ``R_e u' + R_e' u`` is ``beta (Kb u' + Yb u)``."""
+        m = self.model
+        shape = np.shape(laws[0])
+        Kb = np.zeros(shape + (m.n, m.n))
+        Yb = np.zeros(shape + (m.n, m.n))
+        bend = np.array([1, 2, 3, 5, 6, 7])
+        for el, beta in zip(m.elements, m.element_angles(state.angle)):
+            beta = np.broadcast_to(beta, shape)
+            c, s = np.cos(beta), np.sin(beta)
+            R = m._rotations(beta)
+            dR = np.zeros(R.shape)
+            for j in (0, 4):  # d/dbeta of [[c, s], [-s, c]]
+                dR[..., j, j], dR[..., j, j + 1] = -s, c
+                dR[..., j + 1, j], dR[..., j + 1, j + 1] = -c, -s
+            dR *= np.broadcast_to(state.omega[el.link], shape)[..., None, None]
+            Ke = np.zeros((8, 8))
+            Ke[np.ix_(bend, bend)] = m.Ke[el.link][np.ix_(bend, bend)]
+            keep = [i for i, dof in enumerate(el.dofs) if dof >= 0]
+            g = np.array([el.dofs[i] for i in keep])
+            RkT = np.swapaxes(R[..., :, keep], -1, -2)
+            Kb[..., g[:, None], g[None, :]] += RkT @ Ke @ R[..., :, keep]
+            Yb[..., g[:, None], g[None, :]] += RkT @ Ke @ dR[..., :, keep]
+        for i, idx in m.motor_dofs.items():
+            g = np.array(idx)
+            Kb[..., g[:, None], g[None, :]] += m.Km[i]
+        return Kb, Yb
+
+    @property
+    def stiffness_damping_time(self) -> float:
+        """The damping time beta (s) of the stiffness-proportional damping, 2 zeta / omega_1.
+
+        omega_1 is the lowest frozen mode at the initial crank angles, as in the definition of
+        the multibody model's Kelvin-Voigt damping time
+        (:func:`fivebar.multibody.multibody_steady_state`).
+        """
+        p, k = self.params, self.keep
+        M, K = self.model.matrices(p.theta1_0, p.theta4_0)
+        w2 = frozen_modes(M[np.ix_(k, k)], K[np.ix_(k, k)])[0]
+        return 2.0 * p.damping_ratio / float(np.sqrt(np.min(w2)))
 
     # --- SecondOrderSystem protocol ---------------------------------------------------------------
     def matrices(self, t: float) -> tuple[NDArray, NDArray, NDArray]:
@@ -280,7 +336,7 @@ class LinkageDynamics:
     def nonlinear_elements(self, step_data: PeriodicStepData):
         """Element data of f_nl at the time points of ``step_data`` for the compiled step.
 
-        ``(Ge, ae, wE, idx)`` as ``fivebar._kernels.nl_force`` takes them, ``Ge`` and
+        ``(Ge, ae, wE, idx, measure)`` as ``fivebar._kernels.nl_force`` takes them, ``Ge`` and
         ``ae`` sampled at the S step times; None when the model is linear or ``step_data``
         does not sample this model's period at its step times (then the Python loop serves).
         """
@@ -293,7 +349,7 @@ class LinkageDynamics:
                 Ge, ae = self._nl.element_geometry(*self.crank_angles(self.t))
                 return (np.ascontiguousarray(Ge), np.ascontiguousarray(ae),
                         np.ascontiguousarray(self._nl.element_weights),
-                        np.ascontiguousarray(self._nl.element_dofs, dtype=np.int64))
+                        np.ascontiguousarray(self._nl.element_dofs, dtype=np.int64), self._nl.measure)
             self._elements = self._at_step_times("elements", make)
         return self._elements
 

@@ -1145,10 +1145,10 @@ def _march_compiled(Ms, Cs, Ks, Fs, k0, M_const, u, v, a, gn, nsteps, t0, dt, g,
     n = u.size
     nonlin = elems is not None
     if nonlin:
-        Ge, ae, wE, idx = elems
+        Ge, ae, wE, idx, measure = elems
         Kt0 = np.ascontiguousarray(Kt0, dtype=float)
     else:
-        Ge, ae, wE, idx = _NO_ELEMENTS
+        Ge, ae, wE, idx, measure = _NO_ELEMENTS
         Kt0 = np.zeros((n, n))
     if Phi is not None:
         Pu, Pv, Pa = (np.ascontiguousarray(P, dtype=float) for P in Phi)
@@ -1158,7 +1158,7 @@ def _march_compiled(Ms, Cs, Ks, Fs, k0, M_const, u, v, a, gn, nsteps, t0, dt, g,
     info = np.zeros(7)
     status = kern.march(Ms, Cs, Ks, Fs, int(k0), bool(M_const), u, v, a, gn, int(nsteps),
                         float(t0), float(dt), float(g), float(b), float(am), float(af), nonlin,
-                        Ge, ae, wE, idx, Kt0, float(rtol), float(xtol), float(atol),
+                        Ge, ae, wE, idx, int(measure), Kt0, float(rtol), float(xtol), float(atol),
                         int(max_iter), bool(full), cache[0], cache[1], cache[2],
                         Phi is not None, Pu, Pv, Pa, bool(store_all), T, U, V, A, iters, info)
     if status == kern.OK:
@@ -1180,4 +1180,4 @@ def _march_compiled(Ms, Cs, Ks, Fs, k0, M_const, u, v, a, gn, nsteps, t0, dt, g,
 
 
 _NO_ELEMENTS = (np.zeros((1, 1, 1, 8)), np.zeros((1, 1, 8)), np.zeros((1, 1)),
-                np.zeros((1, 8), dtype=np.int64))
+                np.zeros((1, 8), dtype=np.int64), 0)

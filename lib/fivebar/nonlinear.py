@@ -6,54 +6,71 @@ energy of a beam with the axial strain of a moderately large deflection,
 
 .. math::
 
-    V_3 = \frac{EJ}{2}\int_0^L W''^2\,d\bar x + \frac{EA}{2}\int_0^L
-          \Big(V' + \tfrac12 W'^2\Big)^2 d\bar x .
+    V_3 = \frac{EJ}{2}\int_0^L W''^2\,d\bar x + \frac{EA}{2}\int_0^L \epsilon^2\, d\bar x .
 
 Its quadratic part is the linear stiffness :math:`\overline{\mathbf K}_3` of (A.8); the rest,
+with :math:`\epsilon = V' + e` and :math:`e` the nonlinear part of the strain,
 
 .. math::
 
-    \Pi_{nl} = EA\int_0^L \Big(\tfrac12 V' W'^2 + \tfrac18 W'^4\Big)\,d\bar x ,
+    \Pi_{nl} = EA\int_0^L \Big(V' e + \tfrac12 e^2\Big)\,d\bar x ,
 
-is cubic and quartic in the element DOFs.  Its gradient is the internal nonlinear force,
-the negative of the paper's :math:`\varepsilon`: the cubic energy gives the quadratic terms
-:math:`\mathbf G_n, \mathbf K_n` of (2.8), the quartic energy the cubic terms
-:math:`\mathbf G_{gl}, \mathbf K_{gl}` (the book shows the term-by-term correspondence).
-With :math:`V' = (u_5 - u_1)/L` and :math:`W' = \mathbf g^\top \mathbf q`,
-:math:`\mathbf g = [\gamma_i']`, the force and tangent of one element are
+is cubic and quartic in the element DOFs.  Its gradient is the internal nonlinear force, the
+negative of the paper's :math:`\varepsilon`.
+
+**Strain measures** (:data:`STRAIN_MEASURES`, the parameter file's ``strain_measure``; errata
+E30).  The element's axial field is linear, :math:`V' = (u_5 - u_1)/L`, its slope
+:math:`W' = \mathbf g^\top\mathbf q` (:math:`\mathbf g = [\gamma_i']`) a polynomial; its chord
+turns by :math:`\varphi = (w_2 - w_1)/L`, the mean of :math:`W'`.
+
+* ``"literal"``: :math:`e = \tfrac12 W'^2` at each point, the paper's (2.8) (its quadratic
+  terms :math:`\mathbf G_n, \mathbf K_n` and cubic terms :math:`\mathbf G_{gl},
+  \mathbf K_{gl}` are the two parts of this energy, errata E29).  A continuous beam's axial
+  displacement follows :math:`\tfrac12 W'^2` along the span; the linear field cannot, and a
+  chord rotation :math:`\varphi` adds :math:`\varphi(W' - \varphi)` at each point, a strain
+  with zero mean that no stretch causes, whose energy :math:`\tfrac{EA}2\varphi^2\int(W'-\varphi)^2`
+  stiffens the bending (membrane locking).  It converges only as the mesh is refined.
+* ``"corotated"``: the slopes measured from the deformed chord,
+  :math:`e = \tfrac12\varphi^2 + \tfrac12 (W' - \varphi)^2` (the chord's stretch to second
+  order plus the local slope): the rotation term is gone; the variation of
+  :math:`(W'-\varphi)^2` along the element is left.
+* ``"uniform"`` (default): the mean over the element,
+  :math:`e = \frac1{2L}\int_0^L W'^2`, the same at every point: the stretch of the chord plus
+  the excess of the arc length over it.  This is the exact strain of a beam of moderately large
+  deflection whose axial force is uniform between nodes (the axial field condensed); a rigid
+  rotation of a bent element leaves it unchanged.
+
+All three have the same element mean of :math:`e`; they differ in its variation along the
+element.  With the element's :math:`N_p = EA\,w_p (V' + e_p)` at the Gauss points and the
+gradient rows :math:`\mathbf D_p = \partial e_p/\partial\mathbf q`, the force and tangent are
 
 .. math::
 
-    & f_{1,5} = \mp\frac{EA}{2L}\int W'^2, \quad
-    f_i = EA\int \big(V' W' + \tfrac12 W'^3\big) g_i, \\
-    & K_{ij} = EA\int\big(V' + \tfrac32 W'^2\big) g_i g_j, \quad
-    K_{1i,5i} = \mp\frac{EA}{L}\int W' g_i ,
+    \mathbf f = \sum_p EA\,w_p\, e_p\,\mathbf a + \sum_p N_p\,\mathbf D_p ,\qquad
+    \mathbf K = \sum_p EA\,w_p\big(\mathbf D_p(\mathbf a + \mathbf D_p)^\top
+        + \mathbf a\mathbf D_p^\top\big) + \sum_p N_p\,\frac{\partial^2 e_p}{\partial\mathbf q^2},
 
-integrated exactly by Gauss-Legendre quadrature (10 points: the integrands are polynomials of
-degree at most 16).  Element forces are rotated to the global frame and assembled like the
-linear matrices; they depend on the configuration through the element rotations.
+:math:`\mathbf a` the stretch row (:math:`V' = \mathbf a^\top\mathbf q`), integrated exactly by
+Gauss-Legendre quadrature (10 points: the integrands are polynomials of degree at most 16).
+The :math:`N_p\,\partial^2 e_p/\partial\mathbf q^2` term is the geometric stiffness of the axial
+force: the axial force the rigid-body inertia puts in a link (through the axial DOFs, whose
+:math:`V'` carries it) stiffens its bending.  Element forces are rotated to the global frame
+and assembled like the linear matrices; they depend on the configuration through the element
+rotations.
 
 **Evaluation in the global DOFs.**  With the element rotation :math:`\mathbf R_e` and the
 element's global DOFs :math:`\mathbf u_e`, the slope at Gauss point :math:`p` is
 :math:`W'_p = \mathbf G_{ep}\mathbf u_e` with :math:`\mathbf G_{ep} = \mathbf g_p^\top\mathbf R_e`,
 and the stretch :math:`V' = \mathbf a_e^\top\mathbf u_e` with
-:math:`\mathbf a_e^\top = (\mathbf R_e[4,:] - \mathbf R_e[0,:])/L`.  Then
-
-.. math::
-
-    \mathbf f_e ={}& EA\Big(\sum_p w_p\big(V' + \tfrac12 W_p'^2\big)W'_p\,\mathbf G_{ep}^\top
-        + \tfrac12\sum_p w_p W_p'^2\,\mathbf a_e\Big), \\
-    \mathbf K_e ={}& EA\Big(\sum_p w_p\big(V' + \tfrac32 W_p'^2\big)\mathbf G_{ep}^\top\mathbf G_{ep}
-        + \mathbf a_e\mathbf c_e^\top + \mathbf c_e\mathbf a_e^\top\Big),
-
-:math:`\mathbf c_e = \sum_p w_p W'_p\mathbf G_{ep}^\top`: the rotated form of the local
-force and tangent above.  :class:`NonlinearForce` evaluates all elements at once: the
-configuration enters only through :class:`ElementGeometry`, the rows :math:`\mathbf G_{ep}` and
-:math:`\mathbf a_e^\top` (repeated at each Gauss point of the element) scattered into the
-global DOFs, so that all slopes and stretches are one product :math:`\mathbf H\mathbf u` and the
-tangent one product :math:`\mathbf H^\top\mathbf Z`.  A caller stepping through known instants
-computes the geometry once per instant (:class:`fivebar.dynamics.LinkageDynamics` does, for the
-S step times of a period).
+:math:`\mathbf a_e^\top = (\mathbf R_e[4,:] - \mathbf R_e[0,:])/L`.  :class:`NonlinearForce`
+evaluates all elements at once: the configuration enters only through
+:class:`ElementGeometry`, the rows :math:`\mathbf G_{ep}` and :math:`\mathbf a_e^\top`
+(repeated at each Gauss point of the element) scattered into the global DOFs, so that all
+slopes and stretches are one product :math:`\mathbf H\mathbf u`.  A caller stepping through
+known instants computes the geometry once per instant (:class:`fivebar.dynamics.LinkageDynamics`
+does, for the S step times of a period).  The compiled element loop
+(``fivebar._kernels.nl_force``) evaluates the same definition; the tests hold the two equal to
+round-off for every strain measure.
 """
 
 from __future__ import annotations
@@ -65,10 +82,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .assembly import Model
+from .errors import InputError
 from .elements import gauss_points, shape_functions
 from .kinematics import link_angles
 
-__all__ = ["ElementGeometry", "NonlinearForce", "element_energy", "element_force"]
+__all__ = ["STRAIN_MEASURES", "ElementGeometry", "NonlinearForce", "element_energy", "element_force"]
 
 _TRANSVERSE = np.array([1, 2, 3, 5, 6, 7])
 _GAUSS = 10
@@ -90,31 +108,97 @@ def _slopes(L: float) -> tuple[NDArray, NDArray]:
     return _slopes_of(float(L))
 
 
-def element_energy(q: ArrayLike, L: float, EA: float) -> NDArray:
-    """Nonlinear strain energy Pi_nl (J) of elements with local DOFs ``q`` (..., 8)."""
-    q = np.asarray(q, float)
-    w, g = _slopes(L)
-    Wp = q @ g.T  # (..., npts)
-    Vp = (q[..., 4] - q[..., 0]) / L
-    return EA * ((0.5 * Vp[..., None] * Wp**2 + 0.125 * Wp**4) @ w)
+#: The forms of the membrane strain (errata E30), in the order of their index in the compiled kernel.
+STRAIN_MEASURES = ("literal", "corotated", "uniform")
 
 
-def element_force(q: ArrayLike, L: float, EA: float) -> tuple[NDArray, NDArray]:
-    """Local nonlinear force (..., 8) and tangent (..., 8, 8) of elements with DOFs ``q``."""
-    q = np.asarray(q, float)
+def _measure_code(strain_measure: str) -> int:
+    if strain_measure not in STRAIN_MEASURES:
+        raise InputError(f"strain_measure = {strain_measure!r} is not allowed: use one of {list(STRAIN_MEASURES)}")
+    return STRAIN_MEASURES.index(strain_measure)
+
+
+def _strain(Wp: NDArray, wE: NDArray, G: NDArray, nel: int, measure: int):
+    """Nonlinear part ``e`` (P,) of the membrane strain at the P Gauss points, its gradient
+    rows ``D`` (P, n) and the per-point extra rows ``B`` of its Hessian (None unless
+    corotated), for slopes ``Wp`` (P,) = ``G @ u``, element-major with ``nel`` elements."""
+    P, n = G.shape
+    npts = P // nel
+    Wr, wr = Wp.reshape(nel, npts), wE.reshape(nel, npts)
+    EAL = wr.sum(axis=1, keepdims=True)  # EA L per element
+    if measure == 0:  # literal: W'^2 / 2 at each point
+        return 0.5 * Wp * Wp, Wp[:, None] * G, None
+    Gr = G.reshape(nel, npts, n)
+    if measure == 1:  # slopes from the chord phi, chord stretched by phi^2 / 2
+        phi = (wr * Wr).sum(axis=1, keepdims=True) / EAL
+        s = Wr - phi
+        b = np.einsum("ep,epn->en", wr, Gr) / EAL  # chord rotation per unit DOF
+        Brep = np.repeat(b, npts, axis=0)  # (P, n)
+        e = (0.5 * phi * phi + 0.5 * s * s).reshape(P)
+        D = s.reshape(P)[:, None] * G + (phi - s).reshape(P)[:, None] * Brep
+        return e, D, Brep
+    # uniform: the element's mean of W'^2 / 2 at every point
+    ebar = 0.5 * (wr * Wr * Wr).sum(axis=1, keepdims=True) / EAL
+    cbar = np.einsum("ep,epn->en", wr * Wr, Gr) / EAL
+    return np.repeat(ebar, npts, axis=1).reshape(P), np.repeat(cbar, npts, axis=0), None
+
+
+def _force(u: NDArray, G: NDArray, A: NDArray, wE: NDArray, nel: int, measure: int,
+           tangent: bool = True) -> tuple[NDArray, NDArray | None]:
+    """f_nl and its tangent from slope rows ``G`` and stretch rows ``A`` (P, n) at the P Gauss
+    points (element-major, ``nel`` elements) with weights ``wE`` (EA times Gauss weight)."""
+    Wp, Vp = G @ u, A @ u
+    e, D, B = _strain(Wp, wE, G, nel, measure)
+    N = wE * (Vp + e)  # membrane force times weight at each point
+    f = A.T @ (wE * e) + D.T @ N
+    if not tangent:
+        return f, None
+    X = A.T @ (wE[:, None] * D)
+    K = X + X.T + D.T @ (wE[:, None] * D) + G.T @ (N[:, None] * G)
+    if B is not None:  # corotated: the Hessian of (phi^2 + s^2)/2 is b b^T + h h^T, h = G - b
+        Y = G.T @ (N[:, None] * B)
+        K += 2.0 * (B.T @ (N[:, None] * B)) - Y - Y.T
+    return f, K
+
+
+def _energy(u: NDArray, G: NDArray, A: NDArray, wE: NDArray, nel: int, measure: int) -> float:
+    Wp, Vp = G @ u, A @ u
+    e = _strain(Wp, wE, G, nel, measure)[0]
+    return float(np.sum(wE * (Vp * e + 0.5 * e * e)))
+
+
+def _local_rows(L: float) -> tuple[NDArray, NDArray, NDArray]:
     w, g = _slopes(L)
-    Wp = q @ g.T  # (..., npts)
-    Vp = (q[..., 4] - q[..., 0]) / L
-    f = EA * (((Vp[..., None] * Wp + 0.5 * Wp**3) * w) @ g)
-    I2 = (Wp**2) @ w
-    f[..., 0] -= EA * I2 / (2 * L)
-    f[..., 4] += EA * I2 / (2 * L)
-    K = EA * np.einsum("...p,pi,pj->...ij", (Vp[..., None] + 1.5 * Wp**2) * w, g, g)
-    c = EA * ((Wp * w) @ g) / L  # (..., 8)
-    K[..., 0, :] -= c
-    K[..., :, 0] -= c
-    K[..., 4, :] += c
-    K[..., :, 4] += c
+    a = np.zeros((w.size, 8))
+    a[:, 0], a[:, 4] = -1.0 / L, 1.0 / L
+    return w, g, a
+
+
+def element_energy(q: ArrayLike, L: float, EA: float, strain_measure: str = "literal") -> NDArray:
+    """Nonlinear strain energy Pi_nl (J) of elements with local DOFs ``q`` (..., 8).
+
+    ``strain_measure``: the form of the membrane strain (:data:`STRAIN_MEASURES`); the
+    paper's literal (2.8) by default here, the model takes the parameter file's
+    ``strain_measure``.
+    """
+    code = _measure_code(strain_measure)
+    q = np.asarray(q, float)
+    w, g, a = _local_rows(L)
+    out = np.empty(q.shape[:-1])
+    for k in np.ndindex(q.shape[:-1]):
+        out[k] = _energy(q[k], g, a, EA * w, 1, code)
+    return out if out.ndim else out[()]
+
+
+def element_force(q: ArrayLike, L: float, EA: float, strain_measure: str = "literal") -> tuple[NDArray, NDArray]:
+    """Local nonlinear force (..., 8) and tangent (..., 8, 8) of elements with DOFs ``q``
+    (``strain_measure`` as in :func:`element_energy`)."""
+    code = _measure_code(strain_measure)
+    q = np.asarray(q, float)
+    w, g, a = _local_rows(L)
+    f, K = np.empty(q.shape), np.empty(q.shape + (8,))
+    for k in np.ndindex(q.shape[:-1]):
+        f[k], K[k] = _force(q[k], g, a, EA * w, 1, code)
     return f, K
 
 
@@ -153,12 +237,20 @@ class NonlinearForce:
     keep
         Optional indices of the model DOFs to work on: ``u``, ``f`` and ``Kt`` are then
         vectors and matrices on those DOFs only, the other DOFs held at zero.  Default: all.
+    strain_measure
+        The form of the membrane strain, one of :data:`STRAIN_MEASURES`; ``None`` takes the
+        parameter file's ``strain_measure``.
     """
 
-    def __init__(self, model: Model, keep: ArrayLike | None = None) -> None:
+    def __init__(self, model: Model, keep: ArrayLike | None = None, strain_measure: str | None = None) -> None:
         self.model = model
         p = model.params
         self.EA = p.E * p.A
+        #: the form of the membrane strain (:data:`STRAIN_MEASURES`)
+        self.strain_measure = p.strain_measure if strain_measure is None else strain_measure
+        #: its index, as the compiled kernel takes it
+        self.measure = _measure_code(self.strain_measure)
+        self._nel = len(model.elements)
         keep = np.arange(model.n) if keep is None else np.asarray(keep)
         if (keep.ndim != 1 or keep.dtype.kind not in "iu" or np.any((keep < 0) | (keep >= model.n))
                 or np.unique(keep).size != keep.size):
@@ -218,23 +310,7 @@ class NonlinearForce:
     def evaluate(self, u: ArrayLike, geometry: ElementGeometry) -> tuple[NDArray, NDArray]:
         """Force f_nl (n,) and tangent d f_nl / d u (n, n) at state ``u`` (n,) and one geometry."""
         H = geometry.H  # (2, P, n): slopes G and stretches A at the P Gauss points
-        P, n = H.shape[1], H.shape[2]
-        H2 = H.reshape(2 * P, n)
-        wE = self._wE
-        WV = H2 @ u
-        Wp, Vp = WV[:P], WV[P:]
-        W2 = Wp * Wp
-        ww = wE * Wp
-        # f = sum_p EA w (V' + W'^2/2) W' G_p + sum_p EA w W'^2 / 2 A_p
-        c = np.empty((2, P))
-        np.multiply(Vp + 0.5 * W2, ww, out=c[0])
-        np.multiply(0.5 * ww, Wp, out=c[1])
-        f = c.reshape(2 * P) @ H2
-        # K = G^T diag(EA w (V' + 3/2 W'^2)) G + G^T diag(EA w W') A + A^T diag(EA w W') G
-        Z = ww[:, None] * H[::-1]
-        Z[0] += ((Vp + 1.5 * W2) * wE)[:, None] * H[0]
-        K = H2.T @ Z.reshape(2 * P, n)
-        return f, K
+        return _force(np.asarray(u, float), H[0], H[1], self._wE, self._nel, self.measure)
 
     def __call__(self, u: ArrayLike, *theta: float) -> tuple[NDArray, NDArray]:
         u = np.asarray(u, float)
@@ -245,5 +321,4 @@ class NonlinearForce:
     def energy(self, u: ArrayLike, *theta: float) -> float:
         """Total nonlinear strain energy (J) at state ``u``."""
         H = self.geometry(*(float(x) for x in theta)).H
-        Wp, Vp = H @ np.asarray(u, float)
-        return float(np.sum((0.5 * Vp * Wp**2 + 0.125 * Wp**4) * self._wE))
+        return _energy(np.asarray(u, float), H[0], H[1], self._wE, self._nel, self.measure)

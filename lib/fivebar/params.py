@@ -78,6 +78,8 @@ _SCHEMA: dict[str, tuple[Any, str]] = {
     "assumptions.em_variant": (("choice", ("calibrated", "literal")), "-"),
     "assumptions.eccentricity_scale": ("nonneg", "-"),
     "assumptions.yield_stress": ("pos", "Pa"),
+    "assumptions.strain_measure": (("choice", ("uniform", "corotated", "literal")), "-"),
+    "assumptions.damping_model": (("choice", ("modal", "stiffness")), "-"),
 }
 _OPTIONAL = {f"motor{i}.{k}": v for i in (1, 2) for k, v in _OPTIONAL_MOTOR_KEYS.items()}
 _ALL_KEYS = {**_SCHEMA, **_OPTIONAL}
@@ -223,6 +225,8 @@ class Params:
     em_variant: str
     eccentricity_scale: float
     yield_stress: float
+    strain_measure: str
+    damping_model: str
     values: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
     meta: Mapping[str, Mapping[str, Any]] = field(default_factory=dict, compare=False, repr=False)
     #: the flat entries the linkage description refers to (its numbers by dotted key)

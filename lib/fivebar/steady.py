@@ -456,7 +456,8 @@ def _picard_basis(dyn: LinkageDynamics, scheme: Scheme, D: NDArray) -> NDArray |
         return None
     sd = dyn.step_data
     p = min(_PICARD_MODES, dyn.n)
-    _, modes = frozen_modes(sd.M[0], sd.K[0], p)
+    K0 = sd.K[0]  # symmetric part: with Kelvin-Voigt damping K holds a small circulatory term
+    _, modes = frozen_modes(sd.M[0], 0.5 * (K0 + K0.T), p)
     n = dyn.n
     V = np.zeros((2 * n, 2 * p))
     V[:n, :p], V[n:, p:] = modes, modes
