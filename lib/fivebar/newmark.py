@@ -121,7 +121,9 @@ as :class:`fivebar.dynamics.LinkageDynamics` does).  A generic system with Pytho
 algorithm written with numpy and LAPACK calls.  The two agree to round-off (tests).  In the
 compiled loop the nonlinear tangent is evaluated only when a Newton update follows (and at the
 converged state when the sensitivity is asked for).  The first call of a fresh installation
-compiles the kernels (tens of seconds); later processes load them from the cache.
+compiles the kernels (tens of seconds); later processes load them from the cache, which
+heals (a damaged file is discarded and rebuilt with a warning), is read where it is read-only,
+and is temporary (removed at exit) where nothing is writable: ``fivebar._jitcache``.
 
 References: N. M. Newmark, J. Eng. Mech. Div. ASCE 85 (1959) 67-94; H. M. Hilber,
 T. J. R. Hughes, R. L. Taylor, Earthquake Eng. Struct. Dyn. 5 (1977) 283-292; J. Chung,
@@ -1112,23 +1114,11 @@ def _kernels() -> Any:
     global _KERNELS
     if _KERNELS is None:
         try:
-            from . import _kernels as k
+            from ._jitcache import import_cached
         except ImportError:  # pragma: no cover - numba is a pinned dependency
             k = False
-        except RuntimeError as exc:  # numba found no writable cache directory
-            import sys
-            import tempfile
-
-            import numba
-
-            sys.modules.pop(f"{__package__}._kernels", None)
-            numba.config.CACHE_DIR = tempfile.mkdtemp(prefix="fivebar-numba-")
-            warnings.warn(
-                f"numba cannot cache the compiled kernels beside the package or in the user's "
-                f"cache directory ({exc}); caching in {numba.config.CACHE_DIR} for this process "
-                "only. Set NUMBA_CACHE_DIR to a writable directory to keep the cache.",
-                RuntimeWarning, stacklevel=3)
-            from . import _kernels as k
+        else:  # a damaged cache heals, a read-only one is read, else a temporary one
+            k = import_cached(f"{__package__}._kernels")
         _KERNELS = k
     return _KERNELS or None
 
