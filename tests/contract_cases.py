@@ -191,7 +191,7 @@ CASES = [
         system=System(I2, Z2, I2, nonlinear=lambda u: (u**3, np.diag(3 * u**2))), max_iter=10**9, rtol=0.0,
         xtol=0.0), "max_iter", "1000000000"),
     bad("integrate(max_iter=10**9, rtol=0, xtol=0, compiled)", lambda: integrate(
-        SD, [1.0, 0.0], [0.0, 0.0], 0.0, SD.dt, 3, step_data=SD, max_iter=10**9, rtol=0.0, xtol=0.0,
+        SYS, [1.0, 0.0], [0.0, 0.0], 0.0, SD.dt, 3, step_data=SD, max_iter=10**9, rtol=0.0, xtol=0.0,
         atol=0.0), "max_iter", "1000000000"),
     bad("integrate(rtol=-1)", lambda: _integrate(rtol=-1.0), "rtol", "-1"),
     bad("integrate(rtol=nan)", lambda: _integrate(rtol=NAN), "rtol", "nan"),

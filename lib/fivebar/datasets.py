@@ -27,7 +27,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from .errors import InputError
+from .errors import InputError, InputTypeError, array, number
 from .kinematics import crank_laws
 from .modal import frequencies_along_cycle
 from .params import DEFAULT_PARAMS_PATH, Params, load_params
@@ -53,6 +53,22 @@ FREQUENCY_ANGLES_DEG = np.arange(0.0, 361.0, 1.0)
 SWEEP_SPEEDS_RPM = np.linspace(600.0, 3300.0, 120)
 
 
+def _params(params: Params) -> Params:
+    if not isinstance(params, Params):
+        raise InputTypeError(f"params = {params!r} ({type(params).__name__}) is not allowed: give a "
+                             "fivebar.Params (fivebar.load_params())")
+    return params
+
+
+def _file(name: str, path: str | Path) -> Path:
+    """An existing, readable file's path; else an InputError naming the argument."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{name} = {str(path)!r} is not allowed: "
+                         + ("it is a directory" if p.is_dir() else "no such file") + "; give a file")
+    return p
+
+
 def figure6_curves(params: Params, steps_per_period: int = FIGURE6_STEPS) -> pd.DataFrame:
     """Midpoint displacements (µm) of L2 and L3 over one steady period (Figure 6).
 
@@ -62,7 +78,7 @@ def figure6_curves(params: Params, steps_per_period: int = FIGURE6_STEPS) -> pd.
     """
     from .steady import steady_state
 
-    res = steady_state(params, steps_per_period=steps_per_period)
+    res = steady_state(_params(params), steps_per_period=steps_per_period)
     out = {"crank angle (deg)": res.crank_angle}
     for link in ("L2", "L3"):
         for direction in ("transverse", "longitudinal", "chord"):
@@ -76,7 +92,9 @@ def frequencies_table(params: Params, angles_deg=FREQUENCY_ANGLES_DEG, n: int = 
     Columns ``crank angle AB (deg)``, ``theta1 (deg)``, ``theta4 (deg)`` (the absolute crank
     angles of the default crank laws) and ``f1 (Hz)`` .. ``f<n> (Hz)`` (with the motors).
     """
-    phi = np.radians(np.asarray(angles_deg, float))
+    params = _params(params)
+    phi = np.radians(array("angles_deg", angles_deg))
+    n = number("n", n, integer=True, low=1)
     th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed)
     f = frequencies_along_cycle(params, phi, n=n)
     out = {"crank angle AB (deg)": np.degrees(phi), "theta1 (deg)": np.degrees(th1), "theta4 (deg)": np.degrees(th4)}
@@ -92,7 +110,7 @@ def resonance_speeds_table(params: Params) -> pd.DataFrame:
     """
     from .resonance import resonance_speeds
 
-    return resonance_speeds(params).reset_index(drop=True)
+    return resonance_speeds(_params(params)).reset_index(drop=True)
 
 
 def sweep_table(params: Params, speeds_rpm=SWEEP_SPEEDS_RPM) -> pd.DataFrame:
@@ -105,6 +123,7 @@ def sweep_table(params: Params, speeds_rpm=SWEEP_SPEEDS_RPM) -> pd.DataFrame:
 
     from .sweep import speed_sweep
 
+    _params(params)
     with ProcessPoolExecutor(max_workers=2) as pool:  # as chapter 07 does
         return speed_sweep(params, speeds_rpm, executor=pool, progress=False, cache=False)
 
@@ -150,7 +169,7 @@ def source_hash(params_path: str | Path = DEFAULT_PARAMS_PATH) -> str:
     from . import __version__
 
     h = hashlib.sha256()
-    h.update(Path(params_path).read_bytes())
+    h.update(_file("params_path", params_path).read_bytes())
     h.update(__version__.encode())
     for src in sorted(Path(__file__).resolve().parent.glob("*.py")):
         h.update(src.name.encode())
@@ -185,11 +204,16 @@ def write_datasets(
     library sources unchanged) is kept (0 s), unless ``force``.  ``names`` restricts the files
     (default: all).
     """
-    outdir, params_path = Path(outdir), Path(params_path)
+    outdir, params_path = Path(outdir), _file("params_path", params_path)
+    if isinstance(names, str):
+        raise InputError(f"names = {names!r} is not allowed: give a list of dataset names, "
+                         f"e.g. [{names!r}], from {list(DATASETS)}")
     names = list(DATASETS) if names is None else list(names)
     bad = [n for n in names if n not in DATASETS]
     if bad:
         raise InputError(f"names = {bad!r} are not datasets: use some of {list(DATASETS)}")
+    if outdir.exists() and not outdir.is_dir():
+        raise InputError(f"outdir = {str(outdir)!r} is not allowed: it is a file; give a directory")
     digest = source_hash(params_path)
     outdir.mkdir(parents=True, exist_ok=True)
     params = None
@@ -214,7 +238,7 @@ def write_datasets(
 
 def read_dataset(path: str | Path) -> tuple[str, pd.DataFrame]:
     """The provenance line and the table of a CSV written by :func:`write_datasets`."""
-    path = Path(path)
+    path = _file("path", path)
     with open(path, encoding="utf-8") as fh:
         first = fh.readline().rstrip("\n")
     if not first.startswith("# fivebar "):

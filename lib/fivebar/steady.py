@@ -44,7 +44,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from .errors import FivebarError, InputError
+from .errors import FivebarError, InputError, array, number
 from .dynamics import LinkageDynamics
 from .eigen import frozen_modes
 from .elements import shape_functions
@@ -56,6 +56,8 @@ from .setup import Setup, as_setup, default_scheme, min_steps_per_period, scheme
 __all__ = ["SteadyState", "SteadyStateError", "march", "shooting", "steady_state"]
 
 _DIRECTIONS = ("transverse", "longitudinal", "chord")
+#: bounds of the iteration limits: :func:`march` periods, :func:`shooting` Newton iterations
+MAX_PERIODS, MAX_SHOOTING_ITER = 100_000, 1000
 
 
 class SteadyStateError(FivebarError, RuntimeError):
@@ -214,7 +216,7 @@ def _dynamics_and_scheme(dyn, scheme: Scheme | None):
     """Accept a LinkageDynamics, a Setup or a Params; return the dynamics and the scheme."""
     if isinstance(dyn, LinkageDynamics):
         return dyn, default_scheme(dyn.params) if scheme is None else scheme
-    s = as_setup(dyn, scheme=scheme)
+    s = as_setup(dyn, "dyn", scheme=scheme)
     return s.dynamics(), s.scheme
 
 
@@ -289,12 +291,13 @@ def march(
     :class:`~fivebar.newmark.NewtonConvergenceError` naming the scheme and the remedy if a
     step fails.
     """
-    if not tol > 0:
-        raise InputError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
+    tol = number("tol", tol, low=0.0, low_open=True)
+    max_periods = number("max_periods", max_periods, integer=True, low=1, high=MAX_PERIODS)
     dyn, scheme = _dynamics_and_scheme(dyn, scheme)
-    u = np.zeros(dyn.n) if u0 is None else np.asarray(u0, float)
-    v = np.zeros(dyn.n) if v0 is None else np.asarray(v0, float)
+    u = np.zeros(dyn.n) if u0 is None else array("u0", u0, shape=(dyn.n,))
+    v = np.zeros(dyn.n) if v0 is None else array("v0", v0, shape=(dyn.n,))
     change = np.inf
+    changes: list[float] = []
     for k in range(1, max_periods + 1):
         try:
             res = _period(dyn, u, v, scheme)
@@ -305,11 +308,23 @@ def march(
         scale = _energy_norm(dyn, res.u, res.v).max()
         change = float(_energy_norm(dyn, res.u[-1] - u, res.v[-1] - v)) / max(scale, 1e-300)
         u, v = res.u[-1], res.v[-1]
+        changes.append(change)
         if change <= tol:
             return SteadyState(dyn, res.t, res.u, res.v, "march", k, residual=change, scheme=scheme)
+    # a change still falling steadily is a slow decay (light damping), not an instability
+    recent = changes[-min(len(changes), 20):]
+    if len(recent) >= 2 and recent[-1] < recent[0] and np.isfinite(recent[-1]):
+        rate = (recent[-1] / recent[0]) ** (1.0 / (len(recent) - 1))
+        more = int(np.ceil(np.log(tol / change) / np.log(rate))) if rate < 1 else None
+        cause = (f"the change is still falling, by a factor {rate:.4g} per period (the transient "
+                 "decays slowly: light damping)"
+                 + (f", and would reach the tolerance in about {more} more periods" if more else "")
+                 + ": give a larger max_periods, or use shooting (steady_state(..., method='shooting'))")
+    else:
+        cause = _remedy(scheme, dyn.steps)
     raise SteadyStateError(
-        f"no periodic steady state after {max_periods} periods: the last relative change over "
-        f"one period was {change:.3e} (tolerance {tol:.1e}); " + _remedy(scheme, dyn.steps)
+        f"no periodic steady state after max_periods = {max_periods} periods: the last relative change "
+        f"over one period was {change:.3e} (tolerance {tol:.1e}); " + cause
     )
 
 
@@ -337,14 +352,18 @@ def shooting(
     less than a factor 10 in a step, or when a step with the old one fails.  The Floquet
     multipliers of a nonlinear orbit are computed when first asked for.
     """
-    if not tol > 0:
-        raise InputError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
+    tol = number("tol", tol, low=0.0, low_open=True)
+    max_iter = number("max_iter", max_iter, integer=True, low=1, high=MAX_SHOOTING_ITER)
     dyn, scheme = _dynamics_and_scheme(dyn, scheme)
+    n = dyn.n
+    if u0 is not None:
+        u0 = array("u0", u0, shape=(n,))
+    if v0 is not None:
+        v0 = array("v0", v0, shape=(n,))
     if u0 is None or v0 is None:
         us, vs = _initial_state(dyn)
         u0 = us if u0 is None else u0
         v0 = vs if v0 is None else v0
-    n = dyn.n
     linear = dyn.nonlinear is None
     sd = dyn.step_data
     D = np.sqrt(np.concatenate([np.diag(sd.K[0]), np.diag(sd.M[0])]))
@@ -595,9 +614,7 @@ def steady_state(
     if method not in ("shooting", "march"):
         raise InputError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
     if tol is not None:
-        if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) or not 0 < tol < 1:
-            raise InputError(f"tol = {tol!r} is not allowed: give a relative accuracy between 0 and 1, "
-                             "for example 0.01 (1 %), or None for the set-up's S")
+        tol = number("tol", tol, low=0.0, high=1.0, low_open=True, high_open=True)
         if steps_per_period is not None:
             raise InputError(f"steps_per_period = {steps_per_period!r} and tol = {tol!r} are not allowed "
                              "together: with tol the library chooses S")

@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike
 from scipy.signal import find_peaks
 from tqdm import tqdm
 
-from .errors import FivebarError
+from .errors import FivebarError, number
 from .newmark import Scheme
 from .params import Params
 from .setup import Setup, as_setup
@@ -57,6 +57,22 @@ def clear_cache() -> None:
     _CACHE.clear()
 
 
+def _check_links(links, direction) -> tuple[tuple[str, ...], str]:
+    """The links and direction of a sweep, checked."""
+    ok = not isinstance(links, str)
+    if ok:
+        try:
+            links = tuple(links)
+        except TypeError:
+            ok = False
+    if not ok or not links or any(k not in _LINKS for k in links):
+        raise SweepError(f"links = {links!r} is not allowed: give a sequence of some of {list(_LINKS)}, "
+                         "e.g. ('L2', 'L3')")
+    if direction not in ("transverse", "longitudinal", "chord"):
+        raise SweepError(f"direction = {direction!r} is not allowed: use 'transverse', 'longitudinal' or 'chord'")
+    return links, direction
+
+
 def sweep_point(
     params: Params | Setup,
     crank_speed_rpm: float,
@@ -75,7 +91,10 @@ def sweep_point(
     ``max |multiplier|`` (largest Floquet multiplier) and ``periods`` (shooting cost).
     A top-level function, so that it can run in worker processes.
     """
-    setup = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
+    crank_speed_rpm = number("crank_speed_rpm", crank_speed_rpm, low=0.0, low_open=True, unit="r/min",
+                             error=SweepError)
+    links, direction = _check_links(links, direction)
+    setup = as_setup(params, "params", crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
                      scheme=scheme, nonlinear=nonlinear, motors=motors, elements_per_link=elements_per_link)
     dyn = setup.dynamics()
     st = shooting(dyn, scheme=setup.scheme)
@@ -147,20 +166,18 @@ def speed_sweep(
     pandas.DataFrame
         One row per speed, in the order given; columns of :func:`sweep_point`.
     """
-    x = np.atleast_1d(np.asarray(speeds_rpm, float))
+    try:
+        x = np.atleast_1d(np.asarray(speeds_rpm, float))
+    except (TypeError, ValueError):
+        x = np.array([np.nan])
     if x.ndim != 1 or x.size == 0 or not np.all(np.isfinite(x)) or np.any(x <= 0):
         raise SweepError(f"speeds_rpm = {speeds_rpm!r} is not allowed: give positive crank speeds (r/min)")
-    links = tuple(links)
-    bad = [k for k in links if k not in _LINKS]
-    if bad or not links:
-        raise SweepError(f"links = {links!r} is not allowed: use some of {list(_LINKS)}")
-    if direction not in ("transverse", "longitudinal", "chord"):
-        raise SweepError(f"direction = {direction!r} is not allowed: use 'transverse', 'longitudinal' or 'chord'")
+    links, direction = _check_links(links, direction)
     if executor is not None and not callable(getattr(executor, "submit", None)):
         raise SweepError(f"executor = {executor!r} is not allowed: give a concurrent.futures.Executor or None")
     if nonlinear is None and isinstance(params, Params):
         nonlinear = False
-    base = as_setup(params, steps_per_period=steps_per_period, scheme=scheme, nonlinear=nonlinear, motors=motors)
+    base = as_setup(params, "params", steps_per_period=steps_per_period, scheme=scheme, nonlinear=nonlinear, motors=motors)
     params = base.params
     opts = (links, direction, base.steps_per_period, base.scheme, base.nonlinear, base.motors,
             base.elements_per_link)
