@@ -28,6 +28,7 @@ cluster's ``client.get_executor()``); ``None`` runs serially.  Results are cache
 from __future__ import annotations
 
 import concurrent.futures as cf
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -40,7 +41,7 @@ from .errors import FivebarError, number
 from .newmark import Scheme
 from .params import Params
 from .setup import Setup, as_setup
-from .steady import SteadyState, shooting
+from .steady import DEFLECTION_LIMIT, SteadyState, ValidityWarning, shooting
 
 __all__ = ["SweepError", "clear_cache", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
 
@@ -83,12 +84,19 @@ def sweep_point(
     nonlinear: bool = False,
     motors: bool = True,
     elements_per_link: tuple[int, int, int, int] | None = None,
+    accuracy: bool = False,
 ) -> dict[str, float]:
     r"""Steady state at one crank speed: peak-to-peak midpoint amplitudes and their amplification.
 
     Returns a dict with ``speed (r/min)``, ``crank frequency (Hz)``, for every link
     ``"<link> p2p (mm)"``, ``"<link> quasi-static p2p (mm)"``, ``"<link> amplification"``,
-    ``max |multiplier|`` (largest Floquet multiplier) and ``periods`` (shooting cost).
+    ``max |multiplier|`` (largest Floquet multiplier), ``periods`` (shooting cost), and the
+    validity of the result (:attr:`fivebar.steady.SteadyState.validity`): ``peak stress (MPa)``
+    (bending, the largest over the links), ``stress / yield`` (the file's ``yield_stress``),
+    ``deflection / length`` (midpoint against chord, the largest over the links; the model's
+    range is :data:`fivebar.steady.DEFLECTION_LIMIT`), ``period (s)`` (the drive's period: a
+    speed ratio that gives none is refused), ``valid`` (both within range) and, with
+    ``accuracy=True``, ``S error estimate`` (S against 2 S; one more steady state per speed).
     A top-level function, so that it can run in worker processes.
     """
     crank_speed_rpm = number("crank_speed_rpm", crank_speed_rpm, low=0.0, low_open=True, unit="r/min",
@@ -97,7 +105,7 @@ def sweep_point(
     setup = as_setup(params, "params", crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
                      scheme=scheme, nonlinear=nonlinear, motors=motors, elements_per_link=elements_per_link)
     dyn = setup.dynamics()
-    st = shooting(dyn, scheme=setup.scheme)
+    st = shooting(setup)
     sd = dyn.step_data
     qs = np.linalg.solve(sd.K, sd.F[..., None])[..., 0]  # K(t)^-1 F(t) at the S steps
     qs = np.concatenate([qs, qs[:1]])
@@ -110,6 +118,15 @@ def sweep_point(
         out[f"{link} amplification"] = a / q
     out["max |multiplier|"] = float(np.abs(st.floquet_multipliers).max())
     out["periods"] = float(st.periods)
+    v = st.validity if accuracy else st._checks()
+    out["peak stress (MPa)"] = v["peak bending stress (MPa)"]
+    out["stress / yield"] = v["stress / yield"]
+    out["deflection / length"] = v["deflection / length"]
+    out["period (s)"] = v["period (s)"]
+    out["valid"] = bool(v["valid"])
+    if accuracy:
+        out["S error estimate"] = (st.check_accuracy()["S error estimate"] if v["S error estimate"] is None
+                                   else v["S error estimate"])
     return out
 
 
@@ -126,6 +143,7 @@ def speed_sweep(
     executor: cf.Executor | None = None,
     progress: bool = True,
     cache: bool = True,
+    accuracy: bool = False,
 ) -> pd.DataFrame:
     r"""Steady-state midpoint amplitude of the links over a range of crank speeds.
 
@@ -160,11 +178,16 @@ def speed_sweep(
         Show a tqdm progress bar (on stderr).
     cache : bool
         Reuse and store results in the in-memory cache.
+    accuracy : bool
+        Add the column ``S error estimate`` (each speed solved again at 2 S).
 
     Returns
     -------
     pandas.DataFrame
-        One row per speed, in the order given; columns of :func:`sweep_point`.
+        One row per speed, in the order given; columns of :func:`sweep_point`, with the
+        validity of each row (``valid`` False where the stress is above yield or the deflection
+        past the small-deflection range; one :class:`fivebar.steady.ValidityWarning` then says
+        how many rows).
     """
     try:
         x = np.atleast_1d(np.asarray(speeds_rpm, float))
@@ -180,7 +203,7 @@ def speed_sweep(
     base = as_setup(params, "params", steps_per_period=steps_per_period, scheme=scheme, nonlinear=nonlinear, motors=motors)
     params = base.params
     opts = (links, direction, base.steps_per_period, base.scheme, base.nonlinear, base.motors,
-            base.elements_per_link)
+            base.elements_per_link, bool(accuracy))
     key = lambda s: (params, float(s), opts)  # noqa: E731
     results: dict[float, dict[str, float]] = {}
     todo = []
@@ -202,7 +225,22 @@ def speed_sweep(
     if cache:
         for s in todo:
             _CACHE[key(s)] = results[s]
-    return pd.DataFrame([results[s] for s in x.tolist()])
+    df = pd.DataFrame([results[s] for s in x.tolist()])
+    _warn_invalid(df)
+    return df
+
+
+def _warn_invalid(df: pd.DataFrame) -> None:
+    """One ValidityWarning for the rows of a sweep outside the model's validity."""
+    if "valid" not in df or df["valid"].all():
+        return
+    bad = df[~df["valid"].astype(bool)]
+    warnings.warn(
+        f"{len(bad)} of {len(df)} sweep rows are outside the model's validity (stress above yield or "
+        f"deflection past {DEFLECTION_LIMIT:g} of a link's length), from {bad['speed (r/min)'].min():g} r/min "
+        f"(largest stress / yield {bad['stress / yield'].max():.3g}, deflection / length "
+        f"{bad['deflection / length'].max():.3g}): see the columns 'valid', 'stress / yield' and "
+        "'deflection / length'", ValidityWarning, stacklevel=3)
 
 
 def sweep_peaks(sweep: pd.DataFrame, column: str, prominence: float = 0.05) -> pd.DataFrame:
