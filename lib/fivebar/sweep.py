@@ -28,6 +28,10 @@ cluster's ``client.get_executor()``); ``None`` runs serially.  Results are cache
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
+import os
+import signal
+import threading
 import warnings
 from collections.abc import Sequence
 
@@ -43,7 +47,7 @@ from .params import Params
 from .setup import Setup, as_setup
 from .steady import DEFLECTION_LIMIT, SteadyState, ValidityWarning, shooting
 
-__all__ = ["SweepError", "clear_cache", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
+__all__ = ["SweepError", "SweepInterrupted", "clear_cache", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
 
 _CACHE: dict[tuple, dict[str, float]] = {}
 _LINKS = ("L1", "L2", "L3", "L4")
@@ -51,6 +55,74 @@ _LINKS = ("L1", "L2", "L3", "L4")
 
 class SweepError(FivebarError, ValueError):
     r"""Bad input to the speed sweep (the message names the value)."""
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    r"""A sweep stopped by Ctrl-C (SIGINT) or SIGTERM; ``.results`` holds the finished rows.
+
+    It derives from :class:`KeyboardInterrupt`, not from :class:`fivebar.FivebarError`: it is the
+    user's signal, not an error of the library, and ``except Exception`` must not swallow it.
+    The finished rows are also in the in-memory cache, so the same call resumes where it stopped.
+    ``signal`` is the signal's number.
+    """
+
+    def __init__(self, message: str, results: pd.DataFrame, signal_number: int) -> None:
+        super().__init__(message)
+        self.results = results
+        self.signal = signal_number
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread while a sweep runs."""
+
+
+@contextlib.contextmanager
+def _sigterm_interrupts():
+    """While a sweep runs in the main thread, SIGTERM raises :class:`_Terminated` (as Ctrl-C
+    raises KeyboardInterrupt), so that the workers are stopped and the finished rows kept; the
+    previous handler is restored after.  A handler set by the program is left alone."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+
+    main = os.getpid()
+
+    def handler(signum, frame):
+        if os.getpid() != main:  # a worker forked while the handler was set: die as by default
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            os.kill(os.getpid(), signal.SIGTERM)
+            return
+        raise _Terminated(signum)
+
+    signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _stop_executor(executor: cf.Executor, futures) -> None:
+    r"""Cancel the queued ``futures`` and, for a process pool, terminate its worker processes
+    now (a running point is not waited for); the pool is shut down without waiting."""
+    for fut in futures:
+        fut.cancel()
+    procs = list((getattr(executor, "_processes", None) or {}).values())
+    for proc in procs:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in procs:
+        proc.join(1.0)
+        if proc.is_alive():
+            proc.kill()
+            proc.join(1.0)
+    executor.shutdown(wait=False, cancel_futures=True)
+
+
+def ignore_sigint() -> None:
+    r"""Initializer of a sweep's worker processes: Ctrl-C in a terminal reaches every process
+    of the group; the parent stops the workers, so they ignore it (no tracebacks of theirs)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def clear_cache() -> None:
@@ -212,19 +284,36 @@ def speed_sweep(
             results[s] = _CACHE[key(s)]
         else:
             todo.append(s)
-    with tqdm(total=len(todo), disable=not progress, desc="crank speeds", unit="speed") as bar:
-        if executor is None:
-            for s in todo:
-                results[s] = sweep_point(params, s, *opts)
-                bar.update()
-        else:
-            futures = {executor.submit(sweep_point, params, s, *opts): s for s in todo}
-            for fut in cf.as_completed(futures):
-                results[futures[fut]] = fut.result()
-                bar.update()
-    if cache:
-        for s in todo:
-            _CACHE[key(s)] = results[s]
+    futures: dict = {}
+    try:
+        with _sigterm_interrupts(), \
+                tqdm(total=len(todo), disable=not progress, desc="crank speeds", unit="speed") as bar:
+            if executor is None:
+                for s in todo:
+                    results[s] = sweep_point(params, s, *opts)
+                    if cache:
+                        _CACHE[key(s)] = results[s]
+                    bar.update()
+            else:
+                futures = {executor.submit(sweep_point, params, s, *opts): s for s in todo}
+                for fut in cf.as_completed(futures):
+                    s = futures[fut]
+                    results[s] = fut.result()
+                    if cache:
+                        _CACHE[key(s)] = results[s]
+                    bar.update()
+    except KeyboardInterrupt as exc:
+        if executor is not None:
+            _stop_executor(executor, futures)
+            for fut, s in futures.items():  # points that finished while stopping
+                if s not in results and fut.done() and not fut.cancelled() and fut.exception() is None:
+                    results[s] = fut.result()
+        signum = signal.SIGTERM if isinstance(exc, _Terminated) else signal.SIGINT
+        done = [results[s] for s in x.tolist() if s in results]
+        raise SweepInterrupted(
+            f"speed sweep stopped by {signal.Signals(signum).name}: {len(done)} of {len(x)} speeds "
+            "finished (in .results" + (", and cached: the same call resumes" if cache else "") + ")",
+            pd.DataFrame(done), int(signum)) from None
     df = pd.DataFrame([results[s] for s in x.tolist()])
     _warn_invalid(df)
     return df
