@@ -153,6 +153,7 @@ except ImportError:  # pragma: no cover - the pinned environment has it
 __all__ = [
     "GeneralizedAlpha",
     "HHT",
+    "MAX_ITER",
     "Newmark",
     "NewmarkResult",
     "NewtonConvergenceError",

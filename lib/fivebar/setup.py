@@ -64,7 +64,7 @@ def min_steps_per_period(params: Params) -> int:
 _RATIO_DENOMINATOR, _RATIO_TOL = 1000, 1e-9
 
 
-def drive_period(params: Params) -> tuple[Fraction, float]:
+def drive_period(params: Params) -> tuple[Any, float]:
     """The speed ratio as a fraction and the period of the motion it implies (s).
 
     ``ratio, T = drive_period(params)``.  Crank DE turns ``speed_ratio`` times per turn of

@@ -554,8 +554,9 @@ def shooting(
             V, current = full, False  # the modes left to Picard's iteration decay too slowly
         refresh = slow and not current
     raise SteadyStateError(
-        f"shooting did not converge in {max_iter} Newton iterations: relative periodicity "
-        f"residual {r:.3e} (tolerance {tol:.1e}); " + _remedy(scheme, dyn.steps)
+        f"shooting did not converge in {max_iter} Newton iterations (max_iter): relative periodicity "
+        f"residual {r:.3e} (tolerance {tol:.1e}); if the residual was still falling, give a larger "
+        "max_iter or start from a nearby orbit (u0, v0); " + _remedy(scheme, dyn.steps)
     )
 
 

@@ -60,7 +60,7 @@ class SweepError(FivebarError, ValueError):
 class SweepInterrupted(KeyboardInterrupt):
     r"""A sweep stopped by Ctrl-C (SIGINT) or SIGTERM; ``.results`` holds the finished rows.
 
-    It derives from :class:`KeyboardInterrupt`, not from :class:`fivebar.FivebarError`: it is the
+    It derives from :class:`KeyboardInterrupt`, not from :class:`fivebar.errors.FivebarError`: it is the
     user's signal, not an error of the library, and ``except Exception`` must not swallow it.
     The finished rows are also in the in-memory cache, so the same call resumes where it stopped.
     ``signal`` is the signal's number.
