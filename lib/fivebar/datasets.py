@@ -29,6 +29,7 @@ import re
 import signal
 import tempfile
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -127,15 +128,21 @@ def sweep_table(params: Params, speeds_rpm=SWEEP_SPEEDS_RPM) -> pd.DataFrame:
     """Steady-state peak-to-peak midpoint amplitudes of L2, L3 over crank speeds.
 
     :func:`fivebar.sweep.speed_sweep` with its defaults (linear, with the motors, S = 100,
-    generalised-alpha): the columns of :func:`fivebar.sweep.sweep_point`.
+    generalised-alpha): the columns of :func:`fivebar.sweep.sweep_point`, whose validity
+    columns (``valid``, ``stress / yield``, ``deflection / length``) mark the rows outside the
+    model's range (the sweep's warning is not repeated).
     """
     from concurrent.futures import ProcessPoolExecutor
 
     from .sweep import ignore_sigint, speed_sweep
 
     _params(params)
+    from .steady import ValidityWarning
+
     with ProcessPoolExecutor(max_workers=2, initializer=ignore_sigint) as pool:  # as chapter 07 does
-        return speed_sweep(params, speeds_rpm, executor=pool, progress=False, cache=False)
+        with warnings.catch_warnings():  # the table's columns 'valid', 'stress / yield', ... say it
+            warnings.simplefilter("ignore", ValidityWarning)
+            return speed_sweep(params, speeds_rpm, executor=pool, progress=False, cache=False)
 
 
 @dataclass(frozen=True)
