@@ -308,6 +308,8 @@ def speed_sweep(
             for fut, s in futures.items():  # points that finished while stopping
                 if s not in results and fut.done() and not fut.cancelled() and fut.exception() is None:
                     results[s] = fut.result()
+                    if cache:
+                        _CACHE[key(s)] = results[s]
         signum = signal.SIGTERM if isinstance(exc, _Terminated) else signal.SIGINT
         done = [results[s] for s in x.tolist() if s in results]
         raise SweepInterrupted(
