@@ -13,9 +13,11 @@ expected): ``accepted`` or ``refused``.
 
 from __future__ import annotations
 
+import atexit
 import json
 import math
 import os
+import shutil
 import sys
 import tempfile
 import traceback
@@ -40,6 +42,7 @@ SYS = System(I2, 0.1 * I2, I2)
 SD = PeriodicStepData(np.stack([I2] * 4), np.stack([Z2] * 4), np.stack([I2] * 4), np.zeros((4, 2)),
                       t0=0.0, period=1.0)
 TMP = Path(tempfile.mkdtemp(prefix="fivebar-contract-"))
+atexit.register(shutil.rmtree, TMP, True)
 (TMP / "garbage.toml").write_text("this is = = not toml")
 (TMP / "notes.csv").write_text("a,b\n1,2\n")
 
