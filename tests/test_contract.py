@@ -48,7 +48,12 @@ def run_table() -> list[dict]:
             results.append(rec)
             start = rec["i"] + 1
             deadline = time.monotonic() + CASE_SECONDS
-        if hung or proc.poll() is None:
+        if not hung:
+            try:
+                proc.wait(timeout=60)  # let it exit (and remove its temporary directory)
+            except subprocess.TimeoutExpired:
+                hung = True
+        if hung:
             os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
         if start < n and (hung or not results or results[-1]["i"] < start):
