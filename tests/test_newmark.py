@@ -6,6 +6,8 @@ import math
 import warnings
 
 import numpy as np
+
+import fivebar
 import pytest
 from scipy.integrate import solve_ivp
 
@@ -333,18 +335,18 @@ def test_unstable_parameters_raise():
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        (dict(dt=0.0), "dt=0.0"),
-        (dict(dt=-0.1), "dt=-0.1"),
-        (dict(dt=math.inf), "dt=inf"),
-        (dict(nsteps=-1), "nsteps=-1"),
-        (dict(nsteps=2.5), "nsteps=2.5"),
+        (dict(dt=0.0), "dt = 0.0"),
+        (dict(dt=-0.1), "dt = -0.1"),
+        (dict(dt=math.inf), "dt = inf"),
+        (dict(nsteps=-1), "nsteps = -1"),
+        (dict(nsteps=2.5), "nsteps = 2.5"),
         (dict(u0=[math.nan, 0.0]), "finite"),
         (dict(v0=[0.0]), "v0 has shape"),
         (dict(u0=[0.0, 0.0, 0.0], v0=[0.0, 0.0, 0.0]), r"M\(t0\) has shape"),
         (dict(a0=[0.0]), "a0 has shape"),
-        (dict(max_iter=0), "max_iter=0"),
-        (dict(newton="quasi"), "newton='quasi'"),
-        (dict(sensitivity="x"), "sensitivity='x'"),
+        (dict(max_iter=0), "max_iter = 0"),
+        (dict(newton="quasi"), "newton = 'quasi'"),
+        (dict(sensitivity="x"), "sensitivity = 'x'"),
         (dict(sensitivity="uv", a0=[0.0, 0.0]), "a0=None"),
     ],
 )
@@ -352,7 +354,7 @@ def test_bad_input(kwargs, match):
     args = dict(u0=[0.0, 0.0], v0=[0.0, 0.0], t0=0.0, dt=0.1, nsteps=3)
     args.update(kwargs)
     sysm = System(np.eye(2), np.zeros((2, 2)), np.eye(2))
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(fivebar.FivebarError, match=match):
         integrate(sysm, **args)
 
 

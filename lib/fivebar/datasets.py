@@ -11,15 +11,25 @@ Four tables, each computed by the library (never copied from a notebook):
   from :func:`fivebar.sweep.speed_sweep`.
 
 :func:`write_datasets` writes them with a provenance line at the top of each file
-(``# fivebar <version> | parameters <file> sha256 <hash> | <how> | <title> | source <hash>``;
-read them with ``pandas.read_csv(path, comment="#")``) and skips a file whose ``source`` hash
-(of the parameter file and the library's sources, :func:`source_hash`) is current.
+(``# fivebar <version> | parameters <file> sha256 <hash> | <how> | <title> | source <hash> |
+rows <n> sha256 <hash of the table>``; read them with ``pandas.read_csv(path, comment="#")``)
+and skips a file whose ``source`` hash (of the parameter file and the library's sources,
+:func:`source_hash`) is current and whose table has the recorded row count and checksum (a
+file cut short or altered is computed again).  Files are written atomically (a temporary file
+renamed over the old one, removed if anything fails).  A sweep stopped by Ctrl-C or SIGTERM
+stops its workers at once and leaves its finished rows in ``<name>.partial.csv``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import os
+import re
+import signal
+import tempfile
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -27,10 +37,11 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from .errors import InputError
+from .errors import InputError, InputTypeError, array, number
 from .kinematics import crank_laws
 from .modal import frequencies_along_cycle
 from .params import DEFAULT_PARAMS_PATH, Params, load_params
+from .sweep import SweepInterrupted
 
 __all__ = [
     "DATASETS",
@@ -53,6 +64,22 @@ FREQUENCY_ANGLES_DEG = np.arange(0.0, 361.0, 1.0)
 SWEEP_SPEEDS_RPM = np.linspace(600.0, 3300.0, 120)
 
 
+def _params(params: Params) -> Params:
+    if not isinstance(params, Params):
+        raise InputTypeError(f"params = {params!r} ({type(params).__name__}) is not allowed: give a "
+                             "fivebar.Params (fivebar.load_params())")
+    return params
+
+
+def _file(name: str, path: str | Path) -> Path:
+    """An existing, readable file's path; else an InputError naming the argument."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{name} = {str(path)!r} is not allowed: "
+                         + ("it is a directory" if p.is_dir() else "no such file") + "; give a file")
+    return p
+
+
 def figure6_curves(params: Params, steps_per_period: int = FIGURE6_STEPS) -> pd.DataFrame:
     """Midpoint displacements (µm) of L2 and L3 over one steady period (Figure 6).
 
@@ -62,7 +89,7 @@ def figure6_curves(params: Params, steps_per_period: int = FIGURE6_STEPS) -> pd.
     """
     from .steady import steady_state
 
-    res = steady_state(params, steps_per_period=steps_per_period)
+    res = steady_state(_params(params), steps_per_period=steps_per_period)
     out = {"crank angle (deg)": res.crank_angle}
     for link in ("L2", "L3"):
         for direction in ("transverse", "longitudinal", "chord"):
@@ -76,7 +103,9 @@ def frequencies_table(params: Params, angles_deg=FREQUENCY_ANGLES_DEG, n: int = 
     Columns ``crank angle AB (deg)``, ``theta1 (deg)``, ``theta4 (deg)`` (the absolute crank
     angles of the default crank laws) and ``f1 (Hz)`` .. ``f<n> (Hz)`` (with the motors).
     """
-    phi = np.radians(np.asarray(angles_deg, float))
+    params = _params(params)
+    phi = np.radians(array("angles_deg", angles_deg))
+    n = number("n", n, integer=True, low=1)
     th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed)
     f = frequencies_along_cycle(params, phi, n=n)
     out = {"crank angle AB (deg)": np.degrees(phi), "theta1 (deg)": np.degrees(th1), "theta4 (deg)": np.degrees(th4)}
@@ -92,21 +121,28 @@ def resonance_speeds_table(params: Params) -> pd.DataFrame:
     """
     from .resonance import resonance_speeds
 
-    return resonance_speeds(params).reset_index(drop=True)
+    return resonance_speeds(_params(params)).reset_index(drop=True)
 
 
 def sweep_table(params: Params, speeds_rpm=SWEEP_SPEEDS_RPM) -> pd.DataFrame:
     """Steady-state peak-to-peak midpoint amplitudes of L2, L3 over crank speeds.
 
     :func:`fivebar.sweep.speed_sweep` with its defaults (linear, with the motors, S = 100,
-    generalised-alpha): the columns of :func:`fivebar.sweep.sweep_point`.
+    generalised-alpha): the columns of :func:`fivebar.sweep.sweep_point`, whose validity
+    columns (``valid``, ``stress / yield``, ``deflection / length``) mark the rows outside the
+    model's range (the sweep's warning is not repeated).
     """
     from concurrent.futures import ProcessPoolExecutor
 
-    from .sweep import speed_sweep
+    from .sweep import ignore_sigint, speed_sweep
 
-    with ProcessPoolExecutor(max_workers=2) as pool:  # as chapter 07 does
-        return speed_sweep(params, speeds_rpm, executor=pool, progress=False, cache=False)
+    _params(params)
+    from .steady import ValidityWarning
+
+    with ProcessPoolExecutor(max_workers=2, initializer=ignore_sigint) as pool:  # as chapter 07 does
+        with warnings.catch_warnings():  # the table's columns 'valid', 'stress / yield', ... say it
+            warnings.simplefilter("ignore", ValidityWarning)
+            return speed_sweep(params, speeds_rpm, executor=pool, progress=False, cache=False)
 
 
 @dataclass(frozen=True)
@@ -150,7 +186,7 @@ def source_hash(params_path: str | Path = DEFAULT_PARAMS_PATH) -> str:
     from . import __version__
 
     h = hashlib.sha256()
-    h.update(Path(params_path).read_bytes())
+    h.update(_file("params_path", params_path).read_bytes())
     h.update(__version__.encode())
     for src in sorted(Path(__file__).resolve().parent.glob("*.py")):
         h.update(src.name.encode())
@@ -158,19 +194,59 @@ def source_hash(params_path: str | Path = DEFAULT_PARAMS_PATH) -> str:
     return h.hexdigest()
 
 
-def _provenance(ds: Dataset, params_path: Path, digest: str) -> str:
+def _provenance(ds: Dataset, params_path: Path, digest: str, body: bytes, partial: str = "") -> str:
     from . import __version__
 
     par = hashlib.sha256(params_path.read_bytes()).hexdigest()[:12]
+    rows = body.count(b"\n") - 1  # the column names' line
     return (f"# fivebar {__version__} | parameters {params_path.name} sha256 {par} | "
-            f"{ds.how} | {ds.title} | source {digest[:16]}\n")
+            f"{ds.how} | {ds.title}{partial} | source {digest[:16]} | rows {rows} sha256 "
+            f"{hashlib.sha256(body).hexdigest()[:16]}\n")
+
+
+def _check_file(path: Path) -> tuple[str, str | None]:
+    """The provenance line of a written dataset and why the file is damaged (None if intact):
+    the table after the line must have the row count and checksum the line records."""
+    with open(path, "rb") as fh:
+        first = fh.readline()
+        body = fh.read()
+    line = first.decode("utf-8", "replace").rstrip("\n")
+    m = re.search(r"\| rows (\d+) sha256 ([0-9a-f]{16})$", line)
+    if m is None:
+        return line, "its provenance line records no row count and checksum (an older or foreign file)"
+    rows = body.count(b"\n") - 1
+    if rows != int(m.group(1)):
+        return line, f"it has {rows} rows, its provenance line records {m.group(1)} (cut short?)"
+    if hashlib.sha256(body).hexdigest()[:16] != m.group(2):
+        return line, "its checksum does not match the one its provenance line records (altered?)"
+    return line, None
 
 
 def _is_fresh(path: Path, digest: str) -> bool:
     if not path.is_file():
         return False
-    with open(path, encoding="utf-8") as fh:
-        return fh.readline().rstrip("\n").endswith(f"| source {digest[:16]}")
+    line, damage = _check_file(path)
+    return damage is None and f"| source {digest[:16]} |" in line
+
+
+def _write_atomic(path: Path, ds: Dataset, params_path: Path, digest: str, df: pd.DataFrame,
+                  partial: str = "") -> None:
+    """Write ``df`` with its provenance line to a temporary file beside ``path``, then rename it
+    over ``path`` (readers see the old file or the new one, never half of one); the temporary
+    file is removed whatever happens."""
+    body = df.to_csv(index=False, float_format="%.9g", lineterminator="\n").encode("utf-8")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(_provenance(ds, params_path, digest, body, partial).encode("utf-8"))
+            fh.write(body)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.remove(tmp)
+        raise
 
 
 def write_datasets(
@@ -185,11 +261,16 @@ def write_datasets(
     library sources unchanged) is kept (0 s), unless ``force``.  ``names`` restricts the files
     (default: all).
     """
-    outdir, params_path = Path(outdir), Path(params_path)
+    outdir, params_path = Path(outdir), _file("params_path", params_path)
+    if isinstance(names, str):
+        raise InputError(f"names = {names!r} is not allowed: give a list of dataset names, "
+                         f"e.g. [{names!r}], from {list(DATASETS)}")
     names = list(DATASETS) if names is None else list(names)
     bad = [n for n in names if n not in DATASETS]
     if bad:
         raise InputError(f"names = {bad!r} are not datasets: use some of {list(DATASETS)}")
+    if outdir.exists() and not outdir.is_dir():
+        raise InputError(f"outdir = {str(outdir)!r} is not allowed: it is a file; give a directory")
     digest = source_hash(params_path)
     outdir.mkdir(parents=True, exist_ok=True)
     params = None
@@ -202,21 +283,30 @@ def write_datasets(
         t0 = time.perf_counter()
         params = load_params(params_path) if params is None else params
         ds = DATASETS[n]
-        df = ds.compute(params)
-        tmp = path.with_suffix(".csv.tmp")
-        with open(tmp, "w", encoding="utf-8", newline="") as fh:
-            fh.write(_provenance(ds, params_path, digest))
-            df.to_csv(fh, index=False, float_format="%.9g", lineterminator="\n")
-        tmp.replace(path)
+        partial = outdir / f"{n}.partial.csv"
+        try:
+            df = ds.compute(params)
+        except SweepInterrupted as exc:  # keep the finished rows, apart from the dataset
+            if len(exc.results):
+                _write_atomic(partial, ds, params_path, digest, exc.results,
+                              f" | PARTIAL: {len(exc.results)} rows finished before {signal.Signals(exc.signal).name}")
+            raise
+        _write_atomic(path, ds, params_path, digest, df)
+        with contextlib.suppress(FileNotFoundError):
+            partial.unlink()
         cost[n] = time.perf_counter() - t0
     return cost
 
 
 def read_dataset(path: str | Path) -> tuple[str, pd.DataFrame]:
     """The provenance line and the table of a CSV written by :func:`write_datasets`."""
-    path = Path(path)
-    with open(path, encoding="utf-8") as fh:
+    path = _file("path", path)
+    with open(path, encoding="utf-8", errors="replace") as fh:
         first = fh.readline().rstrip("\n")
     if not first.startswith("# fivebar "):
-        raise InputError(f"{path} has no provenance line (expected '# fivebar ...' first)")
+        raise InputError(f"path = {str(path)!r} has no provenance line (expected '# fivebar ...' first)")
+    _, damage = _check_file(path)
+    if damage is not None:
+        raise InputError(f"path = {str(path)!r} is damaged: {damage}; write it again "
+                         "(fivebar.datasets.write_datasets(..., force=True))")
     return first, pd.read_csv(path, comment="#")

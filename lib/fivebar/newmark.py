@@ -121,7 +121,9 @@ as :class:`fivebar.dynamics.LinkageDynamics` does).  A generic system with Pytho
 algorithm written with numpy and LAPACK calls.  The two agree to round-off (tests).  In the
 compiled loop the nonlinear tangent is evaluated only when a Newton update follows (and at the
 converged state when the sensitivity is asked for).  The first call of a fresh installation
-compiles the kernels (tens of seconds); later processes load them from the cache.
+compiles the kernels (tens of seconds); later processes load them from the cache, which
+heals (a damaged file is discarded and rebuilt with a warning), is read where it is read-only,
+and is temporary (removed at exit) where nothing is writable: ``fivebar._jitcache``.
 
 References: N. M. Newmark, J. Eng. Mech. Div. ASCE 85 (1959) 67-94; H. M. Hilber,
 T. J. R. Hughes, R. L. Taylor, Earthquake Eng. Struct. Dyn. 5 (1977) 283-292; J. Chung,
@@ -141,7 +143,7 @@ from typing import Any, Literal, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import FivebarError
+from .errors import ComputationError, FivebarError, InputError, InputTypeError, array, choice, memory, number
 
 try:  # optional: limit BLAS threads inside the time loop (see ``integrate(blas_threads=...)``)
     from threadpoolctl import ThreadpoolController
@@ -151,6 +153,7 @@ except ImportError:  # pragma: no cover - the pinned environment has it
 __all__ = [
     "GeneralizedAlpha",
     "HHT",
+    "MAX_ITER",
     "Newmark",
     "NewmarkResult",
     "NewtonConvergenceError",
@@ -166,6 +169,10 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
+
+#: The largest ``max_iter`` (Newton iterations per step) :func:`integrate` accepts: far above
+#: what a converging step takes (a few), and a bound on the time a step can spend.
+MAX_ITER = 1000
 
 
 # --- errors -----------------------------------------------------------------------------------
@@ -395,9 +402,7 @@ def amplification_matrix(scheme: Scheme, omega_dt: float, zeta: float = 0.0) -> 
     -------
     ndarray, shape (3, 3)
     """
-    W = float(omega_dt)
-    if not (math.isfinite(W) and W >= 0.0):
-        raise ValueError(f"omega_dt={omega_dt!r} must be finite and >= 0")
+    W = number("omega_dt", omega_dt, low=0.0)
     g, b, am, af = scheme.gamma, scheme.beta, scheme.alpha_m, scheme.alpha_f
     c, k = 2.0 * zeta * W, W * W  # scaled damping and stiffness (dt = 1, m = 1)
     # predictors as rows acting on x = (u, v, a) with dt = 1
@@ -459,11 +464,9 @@ class System:
             if callable(X):
                 self._mats.append(X)
             else:
-                A = np.array(X, dtype=float)
+                A = np.array(array(name, X, shape=(n, n) if n is not None else None))
                 if A.ndim != 2 or A.shape[0] != A.shape[1]:
-                    raise ValueError(f"{name} must be a square matrix, got shape {A.shape}")
-                if n is not None and A.shape[0] != n:
-                    raise ValueError(f"{name} has shape {A.shape}, expected ({n}, {n})")
+                    raise InputError(f"{name} has shape {A.shape}: expected a square matrix (n, n)")
                 n = A.shape[0]
                 self._mats.append(A)
         self.time_invariant = not any(callable(X) for X in self._mats)
@@ -476,10 +479,11 @@ class System:
         elif callable(force):
             self._force = lambda t: np.asarray(force(t), dtype=float)
         else:
-            F = np.array(force, dtype=float)
-            if F.shape != (self.n,):
-                raise ValueError(f"force has shape {F.shape}, expected ({self.n},)")
+            F = np.array(array("force", force, shape=(self.n,)))
             self._force = lambda t: F
+        if nonlinear is not None and not callable(nonlinear):
+            raise InputTypeError(f"nonlinear = {nonlinear!r} is not allowed: give None or a callable "
+                                 "(u, t) -> (f_nl, K_t) or u -> (f_nl, K_t)")
         if nonlinear is not None and _positional_arity(nonlinear) == 1:
             self.nonlinear = lambda u, t: nonlinear(u)  # time-independent f_nl(u)
         else:
@@ -529,23 +533,24 @@ class PeriodicStepData:
 
     def __init__(self, M: ArrayLike, C: ArrayLike, K: ArrayLike, F: ArrayLike, t0: float,
                  period: float) -> None:
-        arrs = [np.asarray(X, dtype=float) for X in (M, C, K)]
-        F = np.asarray(F, dtype=float)
+        arrs = [array(name, X) for name, X in (("M", M), ("C", C), ("K", K))]
+        F = array("F", F)
         S = next((X.shape[0] for X in arrs if X.ndim == 3), F.shape[0] if F.ndim == 2 else None)
         if S is None:
-            raise ValueError(
-                "PeriodicStepData needs at least one per-step array (shape (S, n, n) or (S, n))")
+            raise InputError(
+                f"M, C, K have shapes {[X.shape for X in arrs]} and F {F.shape}: PeriodicStepData needs "
+                "at least one per-step array (shape (S, n, n) or (S, n))")
         n = arrs[0].shape[-1]
         out = []
         for name, X in zip(("M", "C", "K"), arrs):
             if X.shape not in ((n, n), (S, n, n)):
-                raise ValueError(
-                    f"{name} has shape {X.shape}, expected ({S}, {n}, {n}) or ({n}, {n})")
+                raise InputError(
+                    f"{name} has shape {X.shape}: expected ({S}, {n}, {n}) or ({n}, {n})")
             out.append(np.broadcast_to(X, (S, n, n)))
         if F.shape not in ((n,), (S, n)):
-            raise ValueError(f"F has shape {F.shape}, expected ({S}, {n}) or ({n},)")
-        if not (math.isfinite(period) and period > 0):
-            raise ValueError(f"period={period!r} must be finite and > 0")
+            raise InputError(f"F has shape {F.shape}: expected ({S}, {n}) or ({n},)")
+        period = number("period", period, low=0.0, low_open=True, unit="s")
+        t0 = number("t0", t0, unit="s")
         self.M, self.C, self.K = out
         #: True if M is the same at every step (a 2-D array was given)
         self.M_constant = arrs[0].ndim == 2
@@ -560,8 +565,7 @@ class PeriodicStepData:
     def from_system(cls, system: SecondOrderSystem, t0: float, period: float,
                     steps: int) -> PeriodicStepData:
         """Sample ``system.matrices`` and ``system.force`` at ``t0 + k period/steps``, k < steps."""
-        if int(steps) != steps or steps < 1:
-            raise ValueError(f"steps={steps!r} must be a positive integer")
+        steps = number("steps", steps, integer=True, low=1)
         ts = t0 + period * np.arange(steps) / steps
         mats = [system.matrices(float(t)) for t in ts]
         return cls(
@@ -665,7 +669,7 @@ def consistent_acceleration(system: SecondOrderSystem, t: float, u: ArrayLike,
     try:
         return np.linalg.solve(M, rhs)
     except np.linalg.LinAlgError as exc:
-        raise ValueError(
+        raise ComputationError(
             f"the mass matrix at t = {t:.9g} s is singular; pass a0 explicitly") from exc
 
 
@@ -789,53 +793,59 @@ def integrate(
 
     Raises
     ------
-    ValueError
-        Bad ``dt``, ``nsteps``, shapes, non-finite initial state, mismatched ``step_data``.
+    fivebar.errors.InputError
+        Bad ``dt``, ``nsteps``, ``max_iter`` (at most :data:`MAX_ITER`), shapes, non-finite
+        initial state, mismatched ``step_data``.
+    fivebar.errors.ResourceError
+        The stored states would not fit in the available memory (checked before allocating).
     NewtonConvergenceError
         A step whose Newton iteration does not converge within ``max_iter`` (the message names
         the time, the residual norm and the iterations), or a singular tangent.
     """
     scheme = Newmark() if scheme is None else scheme
     if not isinstance(scheme, Scheme):
-        raise TypeError(
-            f"scheme must be a Newmark, HHT or GeneralizedAlpha instance, got {scheme!r}")
-    dt = float(dt)
-    t0 = float(t0)
-    if not (math.isfinite(dt) and dt > 0.0):
-        raise ValueError(f"dt={dt!r} must be finite and > 0 (s)")
-    if not math.isfinite(t0):
-        raise ValueError(f"t0={t0!r} must be finite")
-    if int(nsteps) != nsteps or nsteps < 0:
-        raise ValueError(f"nsteps={nsteps!r} must be an integer >= 0")
-    nsteps = int(nsteps)
-    if int(max_iter) != max_iter or max_iter < 1:
-        raise ValueError(f"max_iter={max_iter!r} must be an integer >= 1")
-    if not (rtol >= 0 and xtol >= 0 and atol >= 0):
-        raise ValueError(
-            f"tolerances must be >= 0, got rtol={rtol!r}, xtol={xtol!r}, atol={atol!r}")
-    if newton not in ("full", "modified"):
-        raise ValueError(f"newton={newton!r} must be 'full' or 'modified'")
-    if store not in ("all", "last"):
-        raise ValueError(f"store={store!r} must be 'all' or 'last'")
+        raise InputTypeError(
+            f"scheme = {scheme!r} ({type(scheme).__name__}) is not allowed: give a Newmark, HHT or "
+            "GeneralizedAlpha instance")
+    for name in ("matrices", "force"):
+        if not callable(getattr(system, name, None)):
+            raise InputTypeError(
+                f"system = {system!r} ({type(system).__name__}) is not allowed: give a second-order "
+                "system with matrices(t) and force(t) (fivebar.newmark.System, or the linkage's dynamics)")
+    dt = number("dt", dt, low=0.0, low_open=True, unit="s")
+    t0 = number("t0", t0, unit="s")
+    nsteps = number("nsteps", nsteps, integer=True, low=0)
+    max_iter = number("max_iter", max_iter, integer=True, low=1, high=MAX_ITER)
+    rtol = number("rtol", rtol, low=0.0)
+    xtol = number("xtol", xtol, low=0.0)
+    atol = number("atol", atol, low=0.0)
+    choice("newton", newton, ("full", "modified"))
+    choice("store", store, ("all", "last"))
     if sensitivity is True:
         sensitivity = "uv" if scheme.is_newmark else "uva"
-    if sensitivity not in (False, None, "uv", "uva"):
-        raise ValueError(f"sensitivity={sensitivity!r} must be False, True, 'uv' or 'uva'")
+    if sensitivity is None:
+        sensitivity = False
+    choice("sensitivity", sensitivity, (False, "uv", "uva"))
     if sensitivity == "uv" and a0 is not None:
-        raise ValueError("sensitivity='uv' differentiates through the consistent initial "
-                         "acceleration: leave a0=None")
+        raise InputError(f"a0 = {a0!r} is not allowed with sensitivity='uv', which differentiates "
+                         "through the consistent initial acceleration: leave a0=None")
     if directions is not None:
         if not sensitivity:
-            raise ValueError("directions needs sensitivity='uv' or 'uva' (the state they refer to)")
-        directions = np.asarray(directions, dtype=float)
+            raise InputError("directions needs sensitivity='uv' or 'uva' (the state they refer to), "
+                             f"got sensitivity={sensitivity!r}")
+        directions = array("directions", directions)
         if directions.ndim == 1:
             directions = directions[:, None]
         nx = np.size(u0) * (2 if sensitivity == "uv" else 3)
-        if directions.ndim != 2 or directions.shape[0] != nx or not np.all(np.isfinite(directions)):
-            raise ValueError(f"directions has shape {directions.shape}: expected finite ({nx}, m) "
+        if directions.ndim != 2 or directions.shape[0] != nx:
+            raise InputError(f"directions has shape {directions.shape}: expected finite ({nx}, m) "
                              f"for sensitivity={sensitivity!r} and {np.size(u0)} DOFs")
-    if blas_threads is not None and (int(blas_threads) != blas_threads or blas_threads < 1):
-        raise ValueError(f"blas_threads={blas_threads!r} must be None or an integer >= 1")
+    if blas_threads is not None:
+        blas_threads = number("blas_threads", blas_threads, integer=True, low=1)
+    n = int(np.size(u0))
+    nstore = nsteps + 1 if store == "all" else 2
+    memory(8.0 * nstore * (3 * n + 1), f"the stored states of nsteps = {nsteps} steps of {n} DOFs",
+           "give fewer nsteps or store='last'")
     with _blas_threads(blas_threads):
         return _march(system, u0, v0, t0, dt, nsteps, scheme, a0, step_data, rtol, xtol, atol,
                       max_iter, newton, sensitivity, store, directions)
@@ -846,13 +856,11 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
            rtol: float, xtol: float, atol: float, max_iter: int, newton: str, sensitivity: Any,
            store: str, directions: Array | None = None) -> NewmarkResult:
     """The body of :func:`integrate` (arguments checked there)."""
-    u = np.array(u0, dtype=float).ravel() if np.ndim(u0) else np.array([u0], dtype=float)
-    v = np.array(v0, dtype=float).ravel() if np.ndim(v0) else np.array([v0], dtype=float)
+    u = np.array(array("u0", u0)).ravel()
     n = u.size
+    v = np.array(array("v0", v0)).ravel()
     if v.shape != (n,):
-        raise ValueError(f"v0 has shape {v.shape}, expected ({n},) like u0")
-    if not (np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
-        raise ValueError("the initial state u0, v0 must be finite")
+        raise InputError(f"v0 has shape {v.shape}: expected ({n},) like u0")
 
     nl = getattr(system, "nonlinear", None)
     linear = nl is None
@@ -860,14 +868,17 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
     # --- access to the per-step data ---------------------------------------------------------
     if step_data is not None:
         sd = step_data
+        if not isinstance(sd, PeriodicStepData):
+            raise InputTypeError(f"step_data = {sd!r} is not allowed: give a PeriodicStepData or None")
         if sd.n != n:
-            raise ValueError(f"step_data has n={sd.n} DOFs, the initial state has {n}")
+            raise InputError(f"step_data has n = {sd.n} DOFs and the initial state u0 has {n}: "
+                             "give step data of the same system")
         if abs(sd.dt - dt) > 1e-12 * dt:
-            raise ValueError(f"dt={dt!r} differs from step_data.dt={sd.dt!r} (period / steps)")
+            raise InputError(f"dt = {dt!r} differs from step_data.dt = {sd.dt!r} (period / steps)")
         off = (t0 - sd.t0) / dt
         k0 = round(off)
         if abs(off - k0) > 1e-8 * max(1.0, abs(off)):
-            raise ValueError(f"t0={t0!r} is not a time point of step_data "
+            raise InputError(f"t0 = {t0!r} is not a time point of step_data "
                              f"(t0 + k dt, t0={sd.t0!r}, dt={dt!r})")
         k0 %= sd.steps
 
@@ -899,9 +910,10 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
     M0, C0, K0, F0 = data(0)
     for name, X in (("M", M0), ("C", C0), ("K", K0)):
         if X.shape != (n, n):
-            raise ValueError(f"{name}(t0) has shape {X.shape}, expected ({n}, {n})")
+            raise InputError(f"system: {name}(t0) has shape {X.shape}, expected ({n}, {n}) for u0 "
+                             f"of {n} DOFs")
     if F0.shape != (n,):
-        raise ValueError(f"F(t0) has shape {F0.shape}, expected ({n},)")
+        raise InputError(f"system: F(t0) has shape {F0.shape}, expected ({n},) for u0 of {n} DOFs")
 
     if linear:
         fnl0 = np.zeros(n)
@@ -913,14 +925,13 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
         try:
             a = np.linalg.solve(M0, F0 - C0 @ v - K0 @ u - fnl0)
         except np.linalg.LinAlgError as exc:
-            raise ValueError(
-                f"the mass matrix at t0={t0!r} is singular; pass a0 explicitly") from exc
+            raise InputError(
+                f"a0 = None is not allowed here: the mass matrix at t0 = {t0!r} is singular, so the "
+                "initial acceleration cannot be computed; pass a0 explicitly") from exc
     else:
-        a = np.array(a0, dtype=float).ravel() if np.ndim(a0) else np.array([a0], dtype=float)
+        a = np.array(array("a0", a0)).ravel()
         if a.shape != (n,):
-            raise ValueError(f"a0 has shape {a.shape}, expected ({n},)")
-        if not np.all(np.isfinite(a)):
-            raise ValueError("the initial acceleration a0 must be finite")
+            raise InputError(f"a0 has shape {a.shape}: expected ({n},) like u0")
 
     # --- storage -------------------------------------------------------------------------
     nstore = nsteps + 1 if store == "all" else 2
@@ -1112,23 +1123,11 @@ def _kernels() -> Any:
     global _KERNELS
     if _KERNELS is None:
         try:
-            from . import _kernels as k
+            from ._jitcache import import_cached
         except ImportError:  # pragma: no cover - numba is a pinned dependency
             k = False
-        except RuntimeError as exc:  # numba found no writable cache directory
-            import sys
-            import tempfile
-
-            import numba
-
-            sys.modules.pop(f"{__package__}._kernels", None)
-            numba.config.CACHE_DIR = tempfile.mkdtemp(prefix="fivebar-numba-")
-            warnings.warn(
-                f"numba cannot cache the compiled kernels beside the package or in the user's "
-                f"cache directory ({exc}); caching in {numba.config.CACHE_DIR} for this process "
-                "only. Set NUMBA_CACHE_DIR to a writable directory to keep the cache.",
-                RuntimeWarning, stacklevel=3)
-            from . import _kernels as k
+        else:  # a damaged cache heals, a read-only one is read, else a temporary one
+            k = import_cached(f"{__package__}._kernels")
         _KERNELS = k
     return _KERNELS or None
 

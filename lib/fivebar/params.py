@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from .errors import FivebarError, ParameterError
+from .errors import FivebarError, ParameterError, plain
 from .linkage import Linkage, Material, Section, linkage_from_toml
 
 __all__ = ["Motor", "Params", "load_params", "DEFAULT_PARAMS_PATH", "FOURBAR_PARAMS_PATH"]
@@ -106,6 +106,7 @@ def _describe(rule: Any, unit: str) -> str:
 def _check(key: str, value: Any) -> Any:
     """Validate one entry; return it as float, int or str."""
     rule, unit = _ALL_KEYS[key] if key in _ALL_KEYS else _OPEN[key.split(".", 1)[0]]
+    value = plain(value)  # NumPy numbers as Python ones
     bad = ParameterError(f"{key} = {value!r} is not allowed: it must be {_describe(rule, unit)}")
     if isinstance(rule, tuple):
         if not isinstance(value, str) or value not in rule[1]:
@@ -366,6 +367,11 @@ def _build(values: Mapping[str, Any], meta: Mapping[str, Mapping[str, Any]]) -> 
         for k, v in checked.items()
         if k.split(".", 1)[0] in ("geometry", "material", "masses", "simulation")
     }
+    d, sides = a["bending_depth"], (checked["geometry.width"], checked["geometry.thickness"])
+    if not any(math.isclose(d, side, rel_tol=1e-9) for side in sides):
+        raise ParameterError(
+            f"assumptions.bending_depth = {d!r} is not allowed: it must be one side of the links' "
+            f"section, geometry.width = {sides[0]!r} or geometry.thickness = {sides[1]!r} (m)")
     own = {f.name for f in fields(Params)}
     top = {k: v for k, v in top.items() if k in own}
     top.update({k: v for k, v in a.items() if k in own})
@@ -424,7 +430,14 @@ def load_params(
     elif isinstance(path, (str, Path)):
         paths = [Path(path)]
     else:
-        paths = [Path(p) for p in path]
+        try:
+            paths = [Path(p) for p in path]
+        except TypeError:
+            raise ParameterError(f"path = {path!r} is not allowed: give a TOML file, a sequence "
+                                 "of them, or None for the package's wang2011.toml") from None
+    if overrides is not None and not isinstance(overrides, Mapping):
+        raise ParameterError(f"overrides = {overrides!r} is not allowed: give a mapping of keys "
+                             "to values, e.g. {'crank_speed_rpm': 120}")
     values: dict[str, Any] = {}
     meta: dict[str, dict] = {}
     layers = []
@@ -433,9 +446,12 @@ def load_params(
             with open(p, "rb") as fh:
                 doc = tomllib.load(fh)
         except FileNotFoundError:
-            raise ParameterError(f"parameter file {str(p)!r} does not exist") from None
+            raise ParameterError(f"parameter file path = {str(p)!r} does not exist") from None
+        except OSError as exc:  # a directory, no permission, ...
+            raise ParameterError(f"parameter file path = {str(p)!r} cannot be read: "
+                                 f"{exc.strerror or exc}") from None
         except tomllib.TOMLDecodeError as exc:
-            raise ParameterError(f"parameter file {str(p)!r} is not valid TOML: {exc}") from None
+            raise ParameterError(f"parameter file path = {str(p)!r} is not valid TOML: {exc}") from None
         layers.append(_flatten(doc, str(p)))
     for v, m in layers:
         values.update(v)

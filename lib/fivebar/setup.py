@@ -17,11 +17,14 @@ import math
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
-from .errors import InputError, InputTypeError
+from fractions import Fraction
+
+from .errors import InputError, InputTypeError, flag, memory, number
 from .newmark import GeneralizedAlpha, Newmark, Scheme
 from .params import Params
 
-__all__ = ["PAPER_SCHEME", "Setup", "as_setup", "default_scheme", "min_steps_per_period", "scheme_name"]
+__all__ = ["PAPER_SCHEME", "Setup", "as_setup", "default_scheme", "drive_period", "min_steps_per_period",
+           "scheme_name"]
 
 #: The paper's rule (section 5, read as gamma = 1/2, beta = 1/4: errata E2): the
 #: average-acceleration Newmark method.  At S = 100 its periodic orbit of the linkage is
@@ -55,6 +58,41 @@ def min_steps_per_period(params: Params) -> int:
     (assumption ``fourier_terms``); fewer than 2 m + 1 samples per period alias them.
     """
     return 2 * int(params.fourier_terms) + 1
+
+
+#: the largest denominator of a speed ratio read as a fraction, and the tolerance of that reading
+_RATIO_DENOMINATOR, _RATIO_TOL = 1000, 1e-9
+
+
+def drive_period(params: Params) -> tuple[Any, float]:
+    """The speed ratio as a fraction and the period of the motion it implies (s).
+
+    ``ratio, T = drive_period(params)``.  Crank DE turns ``speed_ratio`` times per turn of
+    crank AB; the motion repeats after q turns of AB when the ratio is p/q in lowest terms.  The
+    library's period is one turn of AB, so only integer ratios give a periodic steady state of
+    it: any other ratio raises :class:`~fivebar.errors.InputError` that says what the period
+    would be (or that there is none: a ratio that is not p/q with q <= 1000 within 1e-9).
+    """
+    r = params.speed_ratio
+    frac = Fraction(r).limit_denominator(_RATIO_DENOMINATOR)
+    if abs(float(frac) - r) > _RATIO_TOL * max(1.0, r):
+        raise InputError(
+            f"speed_ratio = {r!r} is not allowed: it is not a ratio of small integers (p/q, q <= "
+            f"{_RATIO_DENOMINATOR}), so the crank motion never repeats and the linkage has no periodic "
+            "steady state; give an integer speed_ratio (crank DE turns that many times per turn of AB)")
+    if frac.denominator != 1:
+        q = frac.denominator
+        raise InputError(
+            f"speed_ratio = {r!r} = {frac} is not allowed: the motion repeats only after {q} turns of "
+            f"crank AB ({q} x {params.period:.4g} s), and the library's period is one turn of AB; give an "
+            "integer speed_ratio (crank DE turns that many times per turn of AB)")
+    return frac, params.period
+
+
+def _estimated_dofs(epl: tuple[int, int, int, int] | None, motors: bool) -> int:
+    """An upper estimate of the DOFs of a mesh: 4 per element and joint, 8 of the motors."""
+    elements = 6 if epl is None else sum(epl)
+    return 4 * elements + (8 if motors else 0)
 
 
 @dataclass(frozen=True)
@@ -97,12 +135,10 @@ class Setup:
         if not isinstance(p, Params):
             raise InputTypeError(f"params must be a fivebar.Params (load_params()), got {type(p).__name__}")
         rpm = p.crank_speed_rpm if self.crank_speed_rpm is None else self.crank_speed_rpm
-        if isinstance(rpm, bool) or not isinstance(rpm, (int, float)) or not (math.isfinite(rpm) and rpm > 0):
-            raise InputError(f"crank_speed_rpm = {self.crank_speed_rpm!r} is not allowed: give a positive speed (r/min)")
-        S = p.steps_per_period if self.steps_per_period is None else self.steps_per_period
+        rpm = number("crank_speed_rpm", rpm, low=0, low_open=True, unit="r/min")
         S_min = min_steps_per_period(p)
-        if isinstance(S, bool) or not isinstance(S, (int, float)) or S != int(S):
-            raise InputError(f"steps_per_period = {S!r} is not allowed: give an integer >= {S_min}")
+        S = p.steps_per_period if self.steps_per_period is None else self.steps_per_period
+        S = number("steps_per_period", S, integer=True, low=1)
         if S < S_min:
             raise InputError(
                 f"steps_per_period = {S!r} is too small to resolve the motion: the load of (2.10) has "
@@ -110,18 +146,18 @@ class Setup:
                 f"per period (2 m + 1); the parameter file's default is {p.steps_per_period}"
             )
         for name in ("motors", "nonlinear"):
-            if not isinstance(getattr(self, name), bool):
-                raise InputError(f"{name} = {getattr(self, name)!r} is not allowed: give True or False")
+            object.__setattr__(self, name, flag(name, getattr(self, name)))
         epl = self.elements_per_link
         if epl is not None:
             epl = p.linkage.check_mesh(epl)
+        drive_period(p)
         scheme = default_scheme(p) if self.scheme is None else self.scheme
         if not isinstance(scheme, Scheme):
             raise InputTypeError(
                 f"scheme must be a fivebar.newmark.Scheme (Newmark, HHT, GeneralizedAlpha), got {type(scheme).__name__}"
             )
-        object.__setattr__(self, "crank_speed_rpm", float(rpm))
-        object.__setattr__(self, "steps_per_period", int(S))
+        object.__setattr__(self, "crank_speed_rpm", rpm)
+        object.__setattr__(self, "steps_per_period", S)
         object.__setattr__(self, "elements_per_link", epl)
         object.__setattr__(self, "scheme", scheme)
 
@@ -145,6 +181,14 @@ class Setup:
         if "dyn" not in self._cache:
             from .dynamics import LinkageDynamics
 
+            n = _estimated_dofs(self.elements_per_link, self.motors)
+            S = self.steps_per_period
+            # the step matrices M, C, K of every step and the step tangent's LU cache
+            memory(4.0 * S * n * n * 8,
+                   f"the step matrices of steps_per_period = {S} steps with about {n} DOFs "
+                   f"(elements_per_link = {self.elements_per_link or (1, 2, 2, 1)})",
+                   "give a smaller steps_per_period or a coarser elements_per_link")
+
             self._cache["dyn"] = LinkageDynamics(
                 self.params, self.crank_speed_rpm, self.steps_per_period, self.motors, self.nonlinear,
                 self.elements_per_link,
@@ -152,12 +196,13 @@ class Setup:
         return self._cache["dyn"]
 
 
-def as_setup(setup: Setup | Params, **overrides: Any) -> Setup:
+def as_setup(setup: Setup | Params, argument: str = "setup", **overrides: Any) -> Setup:
     """A :class:`Setup` from a Setup or a Params, with keyword overrides (``None`` = keep).
 
     ``as_setup(params, steps_per_period=400)``; the keywords are the fields of :class:`Setup`;
     those given as ``None`` are ignored, so the functions that take both a set-up and the old
-    keyword arguments can pass theirs through unchanged.
+    keyword arguments can pass theirs through unchanged.  ``argument`` is the caller's name of
+    ``setup`` (for the message of a wrong type).
     """
     given = {k: v for k, v in overrides.items() if v is not None}
     if isinstance(setup, Setup):
@@ -165,6 +210,6 @@ def as_setup(setup: Setup | Params, **overrides: Any) -> Setup:
     if isinstance(setup, Params):
         return Setup(setup, **given)
     raise InputTypeError(
-        f"expected a fivebar.Setup or fivebar.Params, got {type(setup).__name__}: "
-        "use fivebar.load_params() or fivebar.Setup(params, ...)"
+        f"{argument} = {setup!r} ({type(setup).__name__}) is not allowed: give a fivebar.Setup or a "
+        "fivebar.Params (fivebar.load_params() or fivebar.Setup(params, ...))"
     )

@@ -37,6 +37,7 @@ requested accuracy of the midpoint deflections: for 1 % it takes S = 100 to 200 
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -44,7 +45,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from .errors import FivebarError, InputError
+from .errors import FivebarError, InputError, array, number
 from .dynamics import LinkageDynamics
 from .eigen import frozen_modes
 from .elements import shape_functions
@@ -52,13 +53,31 @@ from .newmark import NewtonConvergenceError, Scheme, integrate
 from .params import Params
 from .setup import Setup, as_setup, default_scheme, min_steps_per_period, scheme_name
 
-__all__ = ["SteadyState", "SteadyStateError", "march", "shooting", "steady_state"]
+__all__ = ["DEFLECTION_LIMIT", "SteadyState", "SteadyStateError", "ValidityWarning", "march", "shooting",
+           "steady_state"]
 
 _DIRECTIONS = ("transverse", "longitudinal", "chord")
+#: bounds of the iteration limits: :func:`march` periods, :func:`shooting` Newton iterations
+MAX_PERIODS, MAX_SHOOTING_ITER = 100_000, 1000
 
 
 class SteadyStateError(FivebarError, RuntimeError):
     """The periodic steady state was not reached within the allowed periods or iterations."""
+
+
+class ValidityWarning(UserWarning):
+    """A result lies outside the model's range of validity (stress above yield, deflection past
+    the small-deflection range, or a step too coarse for the accuracy it reports)."""
+
+
+#: The small-deflection range of the beam model: the midpoint deflection of a link relative to
+#: its chord, divided by the link's length.  At 0.1 the linear (small-deflection) estimate of a
+#: cantilever's tip deflection under a tip load is 1 % above the exact elastica (Bisshopp and
+#: Drucker, Quart. Appl. Math. 3 (1945) 272-275; ``tests/test_validity.py`` solves the elastica),
+#: and the error grows as the square of the deflection (4 % at 0.2).
+DEFLECTION_LIMIT = 0.1
+#: An estimated discretisation error (S against 2 S) above this is reported in the note.
+ACCURACY_LIMIT = 0.01
 
 
 @dataclass
@@ -96,6 +115,8 @@ class SteadyState:
     scheme: Scheme | None = None
     accuracy: dict | None = None
     _cache: dict = field(default_factory=dict, repr=False)
+    #: the set-up solved (None when a LinkageDynamics was given directly)
+    setup: Setup | None = field(default=None, repr=False)
 
     @property
     def floquet_multipliers(self) -> NDArray | None:
@@ -125,13 +146,98 @@ class SteadyState:
         """What the stability of the orbit means, naming the scheme (and a remedy if unstable);
         after ``steady_state(..., tol=...)`` also the step it chose and why."""
         chosen = "" if self.accuracy is None else "; " + self.accuracy["choice"]
+        outside = self._outside()
+        tail = chosen + ("" if not outside else "; OUTSIDE THE MODEL'S VALIDITY: " + "; ".join(outside))
         if self.floquet_multipliers is None:
-            return f"reached by marching with {_scheme_text(self.scheme)}; no Floquet multipliers" + chosen
+            return f"reached by marching with {_scheme_text(self.scheme)}; no Floquet multipliers" + tail
         rho = float(np.abs(self.floquet_multipliers).max())
         if rho < 1.0:
             return (f"stable: largest Floquet multiplier {rho:.3g} with {_scheme_text(self.scheme)} at "
-                    f"S = {self.dynamics.steps}" + chosen)
-        return f"unstable: largest Floquet multiplier {rho:.3g}; " + _remedy(self.scheme, self.dynamics.steps) + chosen
+                    f"S = {self.dynamics.steps}" + tail)
+        return f"unstable: largest Floquet multiplier {rho:.3g}; " + _remedy(self.scheme, self.dynamics.steps) + tail
+
+    @property
+    def validity(self) -> dict[str, Any]:
+        """The checks a careful analyst makes of this result, and whether it passes them.
+
+        Keys: ``"peak bending stress (MPa)"`` and its ``"stress link"``, ``"yield stress (MPa)"``
+        (the file's ``yield_stress``), ``"stress / yield"``; ``"deflection / length"`` (the
+        largest midpoint deflection relative to the chord, over the period, divided by the link's
+        length) and its ``"deflection link"``, ``"deflection limit"`` (:data:`DEFLECTION_LIMIT`,
+        the small-deflection range); ``"speed ratio"`` and ``"period (s)"`` (the drive is
+        periodic: :func:`fivebar.setup.drive_period`); ``"S error estimate"``, the relative change
+        of the transverse midpoint deflections of L2 and L3 from S to ``"S compared"`` (from
+        ``steady_state(..., tol=...)``, or computed here at 2 S where it is cheap: the linear
+        model up to 32 DOFs; else None until :meth:`check_accuracy`); ``"valid"`` (stress
+        below yield and deflection within the limit) and ``"reasons"`` (what is outside).
+        """
+        out = dict(self._checks())
+        if self.accuracy is not None:
+            est = {"S error estimate": self.accuracy["estimate"],
+                   "S compared": (self.accuracy["compared_with"], self.accuracy["steps"])}
+        elif "accuracy" in self._cache or (self.dynamics.nonlinear is None and self.dynamics.n <= _DENSE_MAX_DOFS
+                                           and self.setup is not None):
+            est = self.check_accuracy()
+        else:
+            est = {"S error estimate": None, "S compared": None}
+        out.update(est)
+        return out
+
+    def check_accuracy(self) -> dict[str, Any]:
+        """The discretisation error of this S estimated against 2 S (one more steady state at
+        2 S, by shooting from this orbit); the result is kept in :attr:`validity`."""
+        if "accuracy" not in self._cache:
+            dyn = self.dynamics
+            if self.setup is None:
+                raise InputError("check_accuracy needs the set-up of the result: solve with a fivebar.Setup "
+                                 "or Params (steady_state(setup)), not a LinkageDynamics")
+            fine_dyn = self.setup.replace(steps_per_period=2 * dyn.steps).dynamics()
+            fine = shooting(fine_dyn, self.u[0], self.v[0], scheme=self.scheme)
+            self._cache["accuracy"] = {"S error estimate": float(_deflection_change(self, fine)),
+                                       "S compared": (dyn.steps, 2 * dyn.steps)}
+        return dict(self._cache["accuracy"])
+
+    def _checks(self) -> dict[str, Any]:
+        """The cheap checks of :attr:`validity` (stress, deflection, periodicity)."""
+        if "checks" not in self._cache:
+            from .setup import drive_period
+
+            p = self.dynamics.params
+            stress = self.bending_stress()
+            s_link = max(stress, key=stress.get)
+            lengths = dict(zip(LINKS, p.lengths))
+            defl = {k: float(np.abs(self.midpoint(k, "chord")).max()) * 1e-3 / lengths[k] for k in LINKS}
+            d_link = max(defl, key=defl.get)
+            ratio, period = drive_period(p)
+            c = {"peak bending stress (MPa)": float(stress[s_link]) / 1e6, "stress link": s_link,
+                 "yield stress (MPa)": p.yield_stress / 1e6, "stress / yield": float(stress[s_link]) / p.yield_stress,
+                 "deflection / length": defl[d_link], "deflection link": d_link,
+                 "deflection limit": DEFLECTION_LIMIT, "speed ratio": str(ratio), "period (s)": period}
+            reasons = []
+            if c["stress / yield"] >= 1.0:
+                reasons.append(f"peak bending stress {c['peak bending stress (MPa)']:.4g} MPa in {s_link} is "
+                               f"above the yield stress {c['yield stress (MPa)']:.4g} MPa (yield_stress)")
+            if c["deflection / length"] > DEFLECTION_LIMIT:
+                reasons.append(f"the midpoint deflection of {d_link} is {c['deflection / length']:.3g} of its "
+                               f"length, past the small-deflection range ({DEFLECTION_LIMIT:g})")
+            c["valid"] = not reasons
+            c["reasons"] = reasons
+            self._cache["checks"] = c
+        return self._cache["checks"]
+
+    def _outside(self) -> list[str]:
+        """What of :attr:`validity` is outside the model's range (the cheap checks, and the
+        accuracy estimate where it is known)."""
+        out = list(self._checks()["reasons"])
+        est = None
+        if self.accuracy is not None:
+            est = (self.accuracy["estimate"], (self.accuracy["compared_with"], self.accuracy["steps"]))
+        elif "accuracy" in self._cache:
+            est = (self._cache["accuracy"]["S error estimate"], self._cache["accuracy"]["S compared"])
+        if est is not None and est[0] > ACCURACY_LIMIT and self.accuracy is None:
+            out.append(f"S = {est[1][0]} is about {100 * est[0]:.2g} % off S = {est[1][1]} on the midpoint "
+                       "deflections of L2 and L3: give a larger steps_per_period or tol")
+        return out
 
     def _angles(self):
         return self.dynamics.crank_angles(self.t)
@@ -213,9 +319,9 @@ def _remedy(scheme: Scheme | None, S: int) -> str:
 def _dynamics_and_scheme(dyn, scheme: Scheme | None):
     """Accept a LinkageDynamics, a Setup or a Params; return the dynamics and the scheme."""
     if isinstance(dyn, LinkageDynamics):
-        return dyn, default_scheme(dyn.params) if scheme is None else scheme
-    s = as_setup(dyn, scheme=scheme)
-    return s.dynamics(), s.scheme
+        return dyn, default_scheme(dyn.params) if scheme is None else scheme, None
+    s = as_setup(dyn, "dyn", scheme=scheme)
+    return s.dynamics(), s.scheme, s
 
 
 def _energy_norm(dyn: LinkageDynamics, u: NDArray, v: NDArray) -> NDArray:
@@ -289,12 +395,13 @@ def march(
     :class:`~fivebar.newmark.NewtonConvergenceError` naming the scheme and the remedy if a
     step fails.
     """
-    if not tol > 0:
-        raise InputError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
-    dyn, scheme = _dynamics_and_scheme(dyn, scheme)
-    u = np.zeros(dyn.n) if u0 is None else np.asarray(u0, float)
-    v = np.zeros(dyn.n) if v0 is None else np.asarray(v0, float)
+    tol = number("tol", tol, low=0.0, low_open=True)
+    max_periods = number("max_periods", max_periods, integer=True, low=1, high=MAX_PERIODS)
+    dyn, scheme, setup = _dynamics_and_scheme(dyn, scheme)
+    u = np.zeros(dyn.n) if u0 is None else array("u0", u0, shape=(dyn.n,))
+    v = np.zeros(dyn.n) if v0 is None else array("v0", v0, shape=(dyn.n,))
     change = np.inf
+    changes: list[float] = []
     for k in range(1, max_periods + 1):
         try:
             res = _period(dyn, u, v, scheme)
@@ -305,11 +412,24 @@ def march(
         scale = _energy_norm(dyn, res.u, res.v).max()
         change = float(_energy_norm(dyn, res.u[-1] - u, res.v[-1] - v)) / max(scale, 1e-300)
         u, v = res.u[-1], res.v[-1]
+        changes.append(change)
         if change <= tol:
-            return SteadyState(dyn, res.t, res.u, res.v, "march", k, residual=change, scheme=scheme)
+            return SteadyState(dyn, res.t, res.u, res.v, "march", k, residual=change, scheme=scheme,
+                               setup=setup)
+    # a change still falling steadily is a slow decay (light damping), not an instability
+    recent = changes[-min(len(changes), 20):]
+    if len(recent) >= 2 and recent[-1] < recent[0] and np.isfinite(recent[-1]):
+        rate = (recent[-1] / recent[0]) ** (1.0 / (len(recent) - 1))
+        more = int(np.ceil(np.log(tol / change) / np.log(rate))) if rate < 1 else None
+        cause = (f"the change is still falling, by a factor {rate:.4g} per period (the transient "
+                 "decays slowly: light damping)"
+                 + (f", and would reach the tolerance in about {more} more periods" if more else "")
+                 + ": give a larger max_periods, or use shooting (steady_state(..., method='shooting'))")
+    else:
+        cause = _remedy(scheme, dyn.steps)
     raise SteadyStateError(
-        f"no periodic steady state after {max_periods} periods: the last relative change over "
-        f"one period was {change:.3e} (tolerance {tol:.1e}); " + _remedy(scheme, dyn.steps)
+        f"no periodic steady state after {max_periods} periods (max_periods): the last relative change "
+        f"over one period was {change:.3e} (tolerance {tol:.1e}); " + cause
     )
 
 
@@ -337,14 +457,18 @@ def shooting(
     less than a factor 10 in a step, or when a step with the old one fails.  The Floquet
     multipliers of a nonlinear orbit are computed when first asked for.
     """
-    if not tol > 0:
-        raise InputError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
-    dyn, scheme = _dynamics_and_scheme(dyn, scheme)
+    tol = number("tol", tol, low=0.0, low_open=True)
+    max_iter = number("max_iter", max_iter, integer=True, low=1, high=MAX_SHOOTING_ITER)
+    dyn, scheme, setup = _dynamics_and_scheme(dyn, scheme)
+    n = dyn.n
+    if u0 is not None:
+        u0 = array("u0", u0, shape=(n,))
+    if v0 is not None:
+        v0 = array("v0", v0, shape=(n,))
     if u0 is None or v0 is None:
         us, vs = _initial_state(dyn)
         u0 = us if u0 is None else u0
         v0 = vs if v0 is None else v0
-    n = dyn.n
     linear = dyn.nonlinear is None
     sd = dyn.step_data
     D = np.sqrt(np.concatenate([np.diag(sd.K[0]), np.diag(sd.M[0])]))
@@ -393,7 +517,8 @@ def shooting(
                 floquet = _Constant(W * D[None, :])  # W = Phi diag(1 / D)
             else:
                 floquet = _OrbitMonodromy(dyn, scheme, x)
-            return SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, floquet, residual=r, scheme=scheme)
+            return SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, floquet, residual=r, scheme=scheme,
+                               setup=setup)
         if it > max_iter:
             break
         y = solve(g)
@@ -429,8 +554,9 @@ def shooting(
             V, current = full, False  # the modes left to Picard's iteration decay too slowly
         refresh = slow and not current
     raise SteadyStateError(
-        f"shooting did not converge in {max_iter} Newton iterations: relative periodicity "
-        f"residual {r:.3e} (tolerance {tol:.1e}); " + _remedy(scheme, dyn.steps)
+        f"shooting did not converge in {max_iter} Newton iterations (max_iter): relative periodicity "
+        f"residual {r:.3e} (tolerance {tol:.1e}); if the residual was still falling, give a larger "
+        "max_iter or start from a nearby orbit (u0, v0); " + _remedy(scheme, dyn.steps)
     )
 
 
@@ -594,19 +720,24 @@ def steady_state(
     if method not in ("shooting", "march"):
         raise InputError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
     if tol is not None:
-        if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) or not 0 < tol < 1:
-            raise InputError(f"tol = {tol!r} is not allowed: give a relative accuracy between 0 and 1, "
-                             "for example 0.01 (1 %), or None for the set-up's S")
+        tol = number("tol", tol, low=0.0, high=1.0, low_open=True, high_open=True)
         if steps_per_period is not None:
             raise InputError(f"steps_per_period = {steps_per_period!r} and tol = {tol!r} are not allowed "
                              "together: with tol the library chooses S")
     s = as_setup(setup, steps_per_period=steps_per_period, crank_speed_rpm=crank_speed_rpm, motors=motors,
                  nonlinear=nonlinear, scheme=scheme, elements_per_link=elements_per_link)
     if tol is not None:
-        return _to_tolerance(s, method, float(tol))
-    if method == "shooting":
-        return shooting(s)
-    return march(s)
+        res = _to_tolerance(s, method, float(tol))
+    elif method == "shooting":
+        res = shooting(s)
+    else:
+        res = march(s)
+    outside = res._outside()
+    if outside:
+        warnings.warn(f"the steady state at {s.crank_speed_rpm:g} r/min is outside the model's validity: "
+                      + "; ".join(outside) + " (SteadyState.validity has the checks)", ValidityWarning,
+                      stacklevel=2)
+    return res
 
 
 def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
@@ -627,6 +758,7 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
             tried.append(f"S = {S}: failed ({type(exc).__name__})")
             prev, S = None, 2 * S
             continue
+        cur.setup = s.replace(steps_per_period=S)
         if prev is not None:
             err = _deflection_change(prev, cur)
             tried.append(f"S = {prev.dynamics.steps} to {S}: {err:.2e}")

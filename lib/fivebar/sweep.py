@@ -28,6 +28,11 @@ cluster's ``client.get_executor()``); ``None`` runs serially.  Results are cache
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
+import os
+import signal
+import threading
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -36,13 +41,13 @@ from numpy.typing import ArrayLike
 from scipy.signal import find_peaks
 from tqdm import tqdm
 
-from .errors import FivebarError
+from .errors import FivebarError, number
 from .newmark import Scheme
 from .params import Params
 from .setup import Setup, as_setup
-from .steady import SteadyState, shooting
+from .steady import DEFLECTION_LIMIT, SteadyState, ValidityWarning, shooting
 
-__all__ = ["SweepError", "clear_cache", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
+__all__ = ["SweepError", "SweepInterrupted", "clear_cache", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
 
 _CACHE: dict[tuple, dict[str, float]] = {}
 
@@ -51,9 +56,97 @@ class SweepError(FivebarError, ValueError):
     r"""Bad input to the speed sweep (the message names the value)."""
 
 
+class SweepInterrupted(KeyboardInterrupt):
+    r"""A sweep stopped by Ctrl-C (SIGINT) or SIGTERM; ``.results`` holds the finished rows.
+
+    It derives from :class:`KeyboardInterrupt`, not from :class:`fivebar.errors.FivebarError`: it is the
+    user's signal, not an error of the library, and ``except Exception`` must not swallow it.
+    The finished rows are also in the in-memory cache, so the same call resumes where it stopped.
+    ``signal`` is the signal's number.
+    """
+
+    def __init__(self, message: str, results: pd.DataFrame, signal_number: int) -> None:
+        super().__init__(message)
+        self.results = results
+        self.signal = signal_number
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread while a sweep runs."""
+
+
+@contextlib.contextmanager
+def _sigterm_interrupts():
+    """While a sweep runs in the main thread, SIGTERM raises :class:`_Terminated` (as Ctrl-C
+    raises KeyboardInterrupt), so that the workers are stopped and the finished rows kept; the
+    previous handler is restored after.  A handler set by the program is left alone."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+
+    main = os.getpid()
+
+    def handler(signum, frame):
+        if os.getpid() != main:  # a worker forked while the handler was set: die as by default
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            os.kill(os.getpid(), signal.SIGTERM)
+            return
+        raise _Terminated(signum)
+
+    signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _stop_executor(executor: cf.Executor, futures) -> None:
+    r"""Cancel the queued ``futures`` and, for a process pool, terminate its worker processes
+    now (a running point is not waited for); the pool is shut down without waiting."""
+    for fut in futures:
+        fut.cancel()
+    procs = list((getattr(executor, "_processes", None) or {}).values())
+    for proc in procs:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in procs:
+        proc.join(1.0)
+        if proc.is_alive():
+            proc.kill()
+            proc.join(1.0)
+    executor.shutdown(wait=False, cancel_futures=True)
+
+
+def ignore_sigint() -> None:
+    r"""Initializer of a sweep's worker processes: Ctrl-C in a terminal reaches every process
+    of the group; the parent stops the workers, so they ignore it (no tracebacks of theirs)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def clear_cache() -> None:
     r"""Forget every cached sweep point."""
     _CACHE.clear()
+
+
+def _check_links(links, direction, linkage) -> tuple[tuple[str, ...], str]:
+    """The links and direction of a sweep, checked against the linkage description
+    (``links=None``: its couplers, L2 and L3 of the five-bar, Figure 6)."""
+    names = tuple(linkage.link_names)
+    if links is None:
+        links = tuple(linkage.couplers)
+    ok = not isinstance(links, str)
+    if ok:
+        try:
+            links = tuple(links)
+        except TypeError:
+            ok = False
+    if not ok or not links or any(k not in names for k in links):
+        raise SweepError(f"links = {links!r} is not allowed: give a sequence of some of {list(names)}, "
+                         f"e.g. {tuple(linkage.couplers)!r}")
+    if direction not in ("transverse", "longitudinal", "chord"):
+        raise SweepError(f"direction = {direction!r} is not allowed: use 'transverse', 'longitudinal' or 'chord'")
+    return links, direction
 
 
 def sweep_point(
@@ -66,24 +159,32 @@ def sweep_point(
     nonlinear: bool = False,
     motors: bool = True,
     elements_per_link: tuple[int, int, int, int] | None = None,
+    accuracy: bool = False,
 ) -> dict[str, float]:
     r"""Steady state at one crank speed: peak-to-peak midpoint amplitudes and their amplification.
 
     Returns a dict with ``speed (r/min)``, ``crank frequency (Hz)``, for every link
     ``"<link> p2p (mm)"``, ``"<link> quasi-static p2p (mm)"``, ``"<link> amplification"``,
-    ``max |multiplier|`` (largest Floquet multiplier) and ``periods`` (shooting cost).
+    ``max |multiplier|`` (largest Floquet multiplier), ``periods`` (shooting cost), and the
+    validity of the result (:attr:`fivebar.steady.SteadyState.validity`): ``peak stress (MPa)``
+    (bending, the largest over the links), ``stress / yield`` (the file's ``yield_stress``),
+    ``deflection / length`` (midpoint against chord, the largest over the links; the model's
+    range is :data:`fivebar.steady.DEFLECTION_LIMIT`), ``period (s)`` (the drive's period: a
+    speed ratio that gives none is refused), ``valid`` (both within range) and, with
+    ``accuracy=True``, ``S error estimate`` (S against 2 S; one more steady state per speed).
     A top-level function, so that it can run in worker processes.
     """
-    setup = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
+    crank_speed_rpm = number("crank_speed_rpm", crank_speed_rpm, low=0.0, low_open=True, unit="r/min",
+                             error=SweepError)
+    setup = as_setup(params, "params", crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
                      scheme=scheme, nonlinear=nonlinear, motors=motors, elements_per_link=elements_per_link)
+    links, direction = _check_links(links, direction, setup.params.linkage)
     dyn = setup.dynamics()
-    st = shooting(dyn, scheme=setup.scheme)
+    st = shooting(setup)
     sd = dyn.step_data
     qs = np.linalg.solve(sd.K, sd.F[..., None])[..., 0]  # K(t)^-1 F(t) at the S steps
     qs = np.concatenate([qs, qs[:1]])
     quasi = SteadyState(dyn, st.t, qs, np.zeros_like(qs), "quasi-static", 0)
-    if links is None:  # the description's couplers (L2 and L3 of the five-bar, Figure 6)
-        links = setup.params.linkage.couplers
     out = {"speed (r/min)": float(crank_speed_rpm), "crank frequency (Hz)": float(crank_speed_rpm) / 60.0}
     for link in links:
         a, q = st.peak_to_peak(link, direction), quasi.peak_to_peak(link, direction)
@@ -92,6 +193,15 @@ def sweep_point(
         out[f"{link} amplification"] = a / q
     out["max |multiplier|"] = float(np.abs(st.floquet_multipliers).max())
     out["periods"] = float(st.periods)
+    v = st.validity if accuracy else st._checks()
+    out["peak stress (MPa)"] = v["peak bending stress (MPa)"]
+    out["stress / yield"] = v["stress / yield"]
+    out["deflection / length"] = v["deflection / length"]
+    out["period (s)"] = v["period (s)"]
+    out["valid"] = bool(v["valid"])
+    if accuracy:
+        out["S error estimate"] = (st.check_accuracy()["S error estimate"] if v["S error estimate"] is None
+                                   else v["S error estimate"])
     return out
 
 
@@ -108,6 +218,7 @@ def speed_sweep(
     executor: cf.Executor | None = None,
     progress: bool = True,
     cache: bool = True,
+    accuracy: bool = False,
 ) -> pd.DataFrame:
     r"""Steady-state midpoint amplitude of the links over a range of crank speeds.
 
@@ -143,30 +254,32 @@ def speed_sweep(
         Show a tqdm progress bar (on stderr).
     cache : bool
         Reuse and store results in the in-memory cache.
+    accuracy : bool
+        Add the column ``S error estimate`` (each speed solved again at 2 S).
 
     Returns
     -------
     pandas.DataFrame
-        One row per speed, in the order given; columns of :func:`sweep_point`.
+        One row per speed, in the order given; columns of :func:`sweep_point`, with the
+        validity of each row (``valid`` False where the stress is above yield or the deflection
+        past the small-deflection range; one :class:`fivebar.steady.ValidityWarning` then says
+        how many rows).
     """
-    x = np.atleast_1d(np.asarray(speeds_rpm, float))
+    try:
+        x = np.atleast_1d(np.asarray(speeds_rpm, float))
+    except (TypeError, ValueError):
+        x = np.array([np.nan])
     if x.ndim != 1 or x.size == 0 or not np.all(np.isfinite(x)) or np.any(x <= 0):
         raise SweepError(f"speeds_rpm = {speeds_rpm!r} is not allowed: give positive crank speeds (r/min)")
-    if direction not in ("transverse", "longitudinal", "chord"):
-        raise SweepError(f"direction = {direction!r} is not allowed: use 'transverse', 'longitudinal' or 'chord'")
     if executor is not None and not callable(getattr(executor, "submit", None)):
         raise SweepError(f"executor = {executor!r} is not allowed: give a concurrent.futures.Executor or None")
     if nonlinear is None and isinstance(params, Params):
         nonlinear = False
-    base = as_setup(params, steps_per_period=steps_per_period, scheme=scheme, nonlinear=nonlinear, motors=motors)
+    base = as_setup(params, "params", steps_per_period=steps_per_period, scheme=scheme, nonlinear=nonlinear, motors=motors)
     params = base.params
-    names = params.linkage.link_names
-    links = params.linkage.couplers if links is None else tuple(links)
-    bad = [k for k in links if k not in names]
-    if bad or not links:
-        raise SweepError(f"links = {links!r} is not allowed: use some of {list(names)}")
+    links, direction = _check_links(links, direction, params.linkage)
     opts = (links, direction, base.steps_per_period, base.scheme, base.nonlinear, base.motors,
-            base.elements_per_link)
+            base.elements_per_link, bool(accuracy))
     key = lambda s: (params, float(s), opts)  # noqa: E731
     results: dict[float, dict[str, float]] = {}
     todo = []
@@ -175,20 +288,54 @@ def speed_sweep(
             results[s] = _CACHE[key(s)]
         else:
             todo.append(s)
-    with tqdm(total=len(todo), disable=not progress, desc="crank speeds", unit="speed") as bar:
-        if executor is None:
-            for s in todo:
-                results[s] = sweep_point(params, s, *opts)
-                bar.update()
-        else:
-            futures = {executor.submit(sweep_point, params, s, *opts): s for s in todo}
-            for fut in cf.as_completed(futures):
-                results[futures[fut]] = fut.result()
-                bar.update()
-    if cache:
-        for s in todo:
-            _CACHE[key(s)] = results[s]
-    return pd.DataFrame([results[s] for s in x.tolist()])
+    futures: dict = {}
+    try:
+        with _sigterm_interrupts(), \
+                tqdm(total=len(todo), disable=not progress, desc="crank speeds", unit="speed") as bar:
+            if executor is None:
+                for s in todo:
+                    results[s] = sweep_point(params, s, *opts)
+                    if cache:
+                        _CACHE[key(s)] = results[s]
+                    bar.update()
+            else:
+                futures = {executor.submit(sweep_point, params, s, *opts): s for s in todo}
+                for fut in cf.as_completed(futures):
+                    s = futures[fut]
+                    results[s] = fut.result()
+                    if cache:
+                        _CACHE[key(s)] = results[s]
+                    bar.update()
+    except KeyboardInterrupt as exc:
+        if executor is not None:
+            _stop_executor(executor, futures)
+            for fut, s in futures.items():  # points that finished while stopping
+                if s not in results and fut.done() and not fut.cancelled() and fut.exception() is None:
+                    results[s] = fut.result()
+                    if cache:
+                        _CACHE[key(s)] = results[s]
+        signum = signal.SIGTERM if isinstance(exc, _Terminated) else signal.SIGINT
+        done = [results[s] for s in x.tolist() if s in results]
+        raise SweepInterrupted(
+            f"speed sweep stopped by {signal.Signals(signum).name}: {len(done)} of {len(x)} speeds "
+            "finished (in .results" + (", and cached: the same call resumes" if cache else "") + ")",
+            pd.DataFrame(done), int(signum)) from None
+    df = pd.DataFrame([results[s] for s in x.tolist()])
+    _warn_invalid(df)
+    return df
+
+
+def _warn_invalid(df: pd.DataFrame) -> None:
+    """One ValidityWarning for the rows of a sweep outside the model's validity."""
+    if "valid" not in df or df["valid"].all():
+        return
+    bad = df[~df["valid"].astype(bool)]
+    warnings.warn(
+        f"{len(bad)} of {len(df)} sweep rows are outside the model's validity (stress above yield or "
+        f"deflection past {DEFLECTION_LIMIT:g} of a link's length), from {bad['speed (r/min)'].min():g} r/min "
+        f"(largest stress / yield {bad['stress / yield'].max():.3g}, deflection / length "
+        f"{bad['deflection / length'].max():.3g}): see the columns 'valid', 'stress / yield' and "
+        "'deflection / length'", ValidityWarning, stacklevel=3)
 
 
 def sweep_peaks(sweep: pd.DataFrame, column: str, prominence: float = 0.05) -> pd.DataFrame:

@@ -1,0 +1,157 @@
+"""Sweeps that stop: SIGINT (Ctrl-C) and SIGTERM to a process running a 2-process speed sweep,
+or the dataset writer, stop the workers at once, keep the finished points and leave no process.
+
+Each case runs the sweep in a subprocess of its own session (its process group holds the
+workers).  The script reports each finished point on stdout (by wrapping
+``concurrent.futures.as_completed`` as ``fivebar.sweep`` sees it); after two the test sends the
+signal and then checks: the process ends (within a generous time limit that only catches
+"runs the remaining speeds to the end": the measured time is printed), the finished points are
+kept (returned in ``SweepInterrupted.results``, or written to ``speed_sweep.partial.csv`` with
+an intact checksum), no temporary file is left, and no process of the group survives.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+LIB = str(Path(__file__).resolve().parents[1] / "lib")
+
+PRELUDE = textwrap.dedent("""
+    import json, sys, time
+    sys.path.insert(0, sys.argv[1])
+    import fivebar, fivebar.sweep as sw
+    _real = sw.cf.as_completed
+    def _reporting(fs, *a, **k):
+        for f in _real(fs, *a, **k):
+            print("done", flush=True)
+            yield f
+    sw.cf.as_completed = _reporting
+    params = fivebar.load_params()
+""")
+
+SWEEP = PRELUDE + textwrap.dedent("""
+    import numpy as np
+    from concurrent.futures import ProcessPoolExecutor
+    setup = fivebar.Setup(params, steps_per_period=800, nonlinear=False)
+    speeds = np.linspace(100.0, 1000.0, 40)
+    log = sys.argv[2]
+
+    def _count_points():  # in each worker: every point computed appends a line to the log
+        real = sw.sweep_point
+        def counted(*a, **k):
+            out = real(*a, **k)
+            with open(log, "a") as fh:
+                fh.write("point\\n")
+            return out
+        sw.sweep_point = counted
+
+    with ProcessPoolExecutor(2, initializer=_count_points) as ex:
+        try:
+            sw.speed_sweep(setup, speeds, executor=ex, progress=False)
+            print(json.dumps({"finished": True}), flush=True)
+        except sw.SweepInterrupted as exc:
+            print(json.dumps({"rows": len(exc.results), "signal": exc.signal,
+                              "speeds": exc.results["speed (r/min)"].tolist(),
+                              "cached": len(sw._CACHE), "t": time.monotonic()}), flush=True)
+""")
+
+WRITER = PRELUDE + textwrap.dedent("""
+    from fivebar import datasets
+    datasets.write_datasets(sys.argv[2], names=["speed_sweep"])
+""")
+
+
+def _run_and_signal(code: str, args: list[str], sig: int) -> tuple[subprocess.Popen, list[str], float, int, float]:
+    proc = subprocess.Popen([sys.executable, "-c", code, LIB, *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    done = 0
+    lines = []
+    while done < 2:
+        line = proc.stdout.readline()
+        if not line:
+            pytest.fail(f"the sweep ended before the signal: {proc.stderr.read()[-2000:]}")
+        lines.append(line)
+        done += line.strip() == "done"
+    t0 = time.monotonic()
+    proc.send_signal(sig)
+    try:
+        out, err = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        pytest.fail("the sweep did not stop within 120 s of the signal")
+    elapsed = time.monotonic() - t0
+    lines += out.splitlines()
+    print(f"{signal.Signals(sig).name}: stopped {elapsed:.2f} s after the signal")
+    return proc, lines, elapsed, done, t0
+
+
+def _group_is_gone(pgid: int) -> bool:
+    for _ in range(50):  # orphaned workers are reaped by init shortly after they exit
+        try:
+            os.killpg(pgid, 0)
+        except ProcessLookupError:
+            return True
+        time.sleep(0.1)
+    return False
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_signal_stops_a_two_process_sweep_and_keeps_the_finished_points(sig, tmp_path):
+    log = tmp_path / "points.log"
+    proc, lines, elapsed, done, t0 = _run_and_signal(SWEEP, [str(log)], sig)
+    report = json.loads([ln for ln in lines if ln.startswith("{")][-1])
+    assert "finished" not in report, "the sweep ran to the end"
+    assert report["signal"] == sig
+    assert done <= report["rows"] < 40 and report["cached"] == report["rows"]
+    print(f"  SweepInterrupted with {report['rows']} rows {report['t'] - t0:.2f} s after the signal")
+    assert _group_is_gone(proc.pid), "a worker process survived"
+    computed = log.read_text().count("point")
+    # the workers stopped: at most the two points running at the signal finished after it
+    assert computed <= report["rows"] + 2, f"{computed} points computed, {report['rows']} kept"
+    assert elapsed < 60  # generous: catches only a sweep that runs the remaining speeds
+
+
+def test_sigterm_stops_the_dataset_writer_and_keeps_its_rows(tmp_path):
+    from fivebar import datasets
+
+    proc, lines, elapsed, done, _ = _run_and_signal(WRITER, [str(tmp_path)], signal.SIGTERM)
+    assert proc.returncode != 0
+    assert not (tmp_path / "speed_sweep.csv").exists()
+    head, df = datasets.read_dataset(tmp_path / "speed_sweep.partial.csv")  # checksum verified
+    assert "PARTIAL" in head and "SIGTERM" in head and done <= len(df) < 120
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["speed_sweep.partial.csv"]  # no temporary file
+    assert _group_is_gone(proc.pid), "a worker process survived"
+    assert elapsed < 60
+
+
+def test_the_dataset_cache_checks_length_and_checksum(tmp_path):
+    """A written file cut short, or altered, is not fresh: it is computed again, and reading it
+    says it is damaged."""
+    from fivebar import datasets
+
+    assert datasets.write_datasets(tmp_path, names=["resonance_speeds"])["resonance_speeds"] > 0
+    path = tmp_path / "resonance_speeds.csv"
+    assert datasets.write_datasets(tmp_path, names=["resonance_speeds"]) == {"resonance_speeds": 0.0}
+    text = path.read_text().splitlines(keepends=True)
+    for damaged in (text[:5], text[:-1] + [text[-1].replace("1", "2", 1)]):
+        path.write_text("".join(damaged))
+        with pytest.raises(fivebar_error(), match="damaged"):
+            datasets.read_dataset(path)
+        assert datasets.write_datasets(tmp_path, names=["resonance_speeds"])["resonance_speeds"] > 0
+        datasets.read_dataset(path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["resonance_speeds.csv"]
+
+
+def fivebar_error():
+    import fivebar
+
+    return fivebar.FivebarError

@@ -1,0 +1,200 @@
+"""The compile cache heals (fivebar._jitcache): damaged files are discarded and rebuilt with one
+warning, a read-only cache is read as it is, a temporary cache is removed at exit.
+
+Every case runs in a subprocess on a cache of its own (a small module of two compiled
+functions in a temporary directory, or the real kernels under a NUMBA_CACHE_DIR of the test's
+own), so the worktree's cache is never touched while other tests run.  The reference is the
+function's value computed by hand, and numba's own counters (cache hits and misses) say whether
+the function was loaded or compiled.
+"""
+
+from __future__ import annotations
+
+import glob
+import json
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+LIB = str(Path(__file__).resolve().parents[1] / "lib")
+
+TINY = textwrap.dedent("""
+    from numba import njit
+
+    @njit(cache=True)
+    def inner(x):
+        return 2.0 * x
+
+    @njit(cache=True)
+    def f(x):
+        return inner(x) + 1.0
+""")
+
+RUN = textwrap.dedent("""
+    import json, sys, warnings
+    sys.path[:0] = [sys.argv[1], sys.argv[2]]
+    warnings.simplefilter("always")
+    with warnings.catch_warnings(record=True) as w:
+        from fivebar._jitcache import import_cached
+        import fivebar._jitcache as jc
+        m = import_cached("tiny")
+        value = m.f(1.5)
+    s = m.f.stats
+    print(json.dumps({"value": value, "hits": sum(s.cache_hits.values()),
+                      "misses": sum(s.cache_misses.values()), "path": s.cache_path,
+                      "temp": jc._TEMP_DIR,
+                      "warnings": [(x.category.__name__, str(x.message)) for x in w]}))
+""")
+
+
+def _env(tmp_path: Path) -> dict:
+    env = dict(os.environ)
+    env.pop("NUMBA_CACHE_DIR", None)
+    env.pop("NUMBA_CACHE_LOCATOR_CLASSES", None)
+    env["XDG_CACHE_HOME"] = str(tmp_path / "user-cache")  # never the user's real cache
+    return env
+
+
+def _run(src: Path, env: dict, prefix: tuple[str, ...] = ()) -> dict:
+    cmd = [*prefix, sys.executable, "-c", RUN, str(src), LIB]
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture
+def tiny(tmp_path):
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "tiny.py").write_text(TINY)
+    return src
+
+
+def _damage(path: str, how: str) -> None:
+    data = Path(path).read_bytes()
+    if how == "truncated":
+        Path(path).write_bytes(data[: len(data) // 2])
+    elif how == "empty":
+        Path(path).write_bytes(b"")
+    else:  # garbled: same length, other bytes
+        Path(path).write_bytes(bytes((b * 7 + 13) % 256 for b in data))
+
+
+@pytest.mark.parametrize("how", ["truncated", "empty", "garbled"])
+@pytest.mark.parametrize("kind", ["nbi", "nbc"])
+def test_a_damaged_cache_file_is_discarded_and_rebuilt(tiny, tmp_path, kind, how):
+    env = _env(tmp_path)
+    first = _run(tiny, env)
+    assert first["value"] == 4.0 and first["misses"] == 1 and first["warnings"] == []
+    cache = tiny / "__pycache__"
+    (target,) = glob.glob(str(cache / f"tiny.f-*.{kind}"))
+    _damage(target, how)
+    second = _run(tiny, env)
+    assert second["value"] == 4.0 and second["misses"] == 1
+    healed = [m for c, m in second["warnings"] if c == "CacheHealedWarning"]
+    assert len(healed) == 1 and len(second["warnings"]) == 1, second["warnings"]
+    assert "tiny.f" in healed[0] and "unreadable" in healed[0] and "removed" in healed[0]
+    third = _run(tiny, env)  # rebuilt: loaded again, silently
+    assert third["value"] == 4.0 and third["hits"] == 1 and third["misses"] == 0
+    assert third["warnings"] == []
+
+
+def _read_only_prefix(directory: Path) -> tuple[str, ...] | None:
+    """A command prefix under which ``directory`` is read-only (for root, a read-only bind
+    mount in a mount namespace of the subprocess's own; otherwise chmod)."""
+    if os.geteuid() != 0:
+        for p in [directory, *directory.rglob("*")]:
+            p.chmod(p.stat().st_mode & ~0o222)
+        return ()
+    unshare, mount = shutil.which("unshare"), shutil.which("mount")
+    if not (unshare and mount):
+        return None
+    d = str(directory)
+    probe = subprocess.run([unshare, "-m", "sh", "-c",
+                            f"mount --bind -o ro '{d}' '{d}' && ! touch '{d}/probe' 2>/dev/null"],
+                           capture_output=True)
+    if probe.returncode != 0:
+        return None
+    return (unshare, "-m", "sh", "-c", f"mount --bind -o ro '{d}' '{d}' && exec \"$0\" \"$@\"")
+
+
+def test_a_read_only_cache_is_used_as_it_is(tiny, tmp_path):
+    env = _env(tmp_path)
+    assert _run(tiny, env)["misses"] == 1
+    before = sorted(os.listdir(tiny / "__pycache__"))
+    prefix = _read_only_prefix(tiny)
+    if prefix is None:
+        pytest.skip("cannot make a directory read-only here (root without mount namespaces)")
+    (tmp_path / "user-cache").mkdir(exist_ok=True)
+    Path(tmp_path / "user-cache").chmod(0o555) if os.geteuid() != 0 else None
+    r = _run(tiny, env, prefix)
+    assert r["value"] == 4.0 and r["hits"] == 1 and r["misses"] == 0, r
+    assert r["path"] == str(tiny / "__pycache__") and r["temp"] is None
+    assert r["warnings"] == []
+    assert sorted(os.listdir(tiny / "__pycache__")) == before
+
+
+def test_with_nowhere_to_write_the_temporary_cache_is_removed_at_exit(tiny, tmp_path):
+    env = _env(tmp_path)
+    env["XDG_CACHE_HOME"] = "/dev/null/cannot-be-a-directory"
+    prefix = _read_only_prefix(tiny)
+    if prefix is None:
+        pytest.skip("cannot make a directory read-only here (root without mount namespaces)")
+    r = _run(tiny, env, prefix)
+    assert r["value"] == 4.0 and r["misses"] == 1
+    assert r["temp"] and r["path"].startswith(r["temp"])
+    assert any("NUMBA_CACHE_DIR" in m for _, m in r["warnings"]), r["warnings"]
+    assert not os.path.exists(r["temp"]), "the temporary cache directory was left behind"
+
+
+KERNELS = textwrap.dedent("""
+    import json, sys, warnings
+    import numpy as np
+    sys.path.insert(0, sys.argv[1])
+    warnings.simplefilter("always")
+    from fivebar.newmark import System, integrate
+    import fivebar.newmark as nm
+    # u'' + u = 0 from u = 1: u(t) = cos t (average acceleration: the phase error is O(dt^2))
+    with warnings.catch_warnings(record=True) as w:
+        r = integrate(System(np.eye(1), np.zeros((1, 1)), np.eye(1)), [1.0], [0.0], 0.0, 0.01,
+                      100, a0=[-1.0])
+    print(json.dumps({"u": float(r.u[-1, 0]), "compiled": nm._KERNELS is not False,
+                      "warnings": [(x.category.__name__, str(x.message)) for x in w]}))
+""")
+
+
+def test_the_kernels_heal_a_truncated_cache(tmp_path):
+    """The real kernels (one recompilation): the march's data file truncated in a cache of the
+    test's own, a copy of the worktree's cache where one exists."""
+    from numba.core import caching
+
+    kern = Path(LIB) / "fivebar" / "_kernels.py"
+    own = tmp_path / "numba"
+    target = own / caching._CacheLocator.get_suitable_cache_subpath(str(kern))
+    real = glob.glob(str(kern.parent / "__pycache__" / "_kernels.*.nb[ic]"))
+    env = _env(tmp_path)
+    env["NUMBA_CACHE_DIR"] = str(own)
+    if real:
+        target.mkdir(parents=True)
+        for f in real:
+            shutil.copy(f, target)
+    cmd = [sys.executable, "-c", KERNELS, LIB]
+    first = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=900)
+    assert first.returncode == 0, first.stderr
+    ref = json.loads(first.stdout.splitlines()[-1])
+    assert abs(ref["u"] - __import__("math").cos(1.0)) < 1e-4
+    data = sorted(glob.glob(str(target / "_kernels.march-*.nbc")))
+    assert data, os.listdir(target)
+    for f in data:
+        _damage(f, "truncated")
+    second = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=900)
+    assert second.returncode == 0, second.stderr
+    out = json.loads(second.stdout.splitlines()[-1])
+    assert out["u"] == ref["u"]
+    healed = [m for c, m in out["warnings"] if c == "CacheHealedWarning"]
+    assert len(healed) == 1 and "_kernels.march" in healed[0], out["warnings"]
