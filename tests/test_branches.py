@@ -67,10 +67,10 @@ def test_describe_speed_names_a_stable_orbit(setup):
 
 
 def test_another_parameter_and_bad_input(setup):
-    br = follow(setup.replace(crank_speed_rpm=60), 0.0025, parameter="bending_depth", p0=0.002, points=6,
+    br = follow(setup.replace(crank_speed_rpm=60), 0.03, parameter="damping_ratio", p0=0.02, points=6,
                 ds_max=0.3, ds=0.3)
-    assert br.p[0] == 0.002 and abs(br.p[-1] - 0.0025) < 1e-12
-    st = steady_state(fivebar.Setup(setup.params.replace(bending_depth=0.0025), crank_speed_rpm=60,
+    assert br.p[0] == 0.02 and abs(br.p[-1] - 0.03) < 1e-12
+    st = steady_state(fivebar.Setup(setup.params.replace(damping_ratio=0.03), crank_speed_rpm=60,
                                     steps_per_period=200, motors=False, nonlinear=False))
     x = linkage_period_map(setup).state(st)
     assert np.abs(br.branch.points[-1].x - x).max() <= 1e-6 * np.abs(x).max()

@@ -7,7 +7,7 @@
   det(Phi - I) = 0, three equations in x(0), x'(0), w).  The remaining difference is the
   trapezoidal rule's period error, w dt^2 / 12 relative (checked).  For small forcing the
   upper fold (the peak) lies on the first-order multiple-scales backbone
-  w = 1 + 3 alpha a^2 / 8 (fivebar.multiscale.backbone).
+  w = 1 + 3 alpha a^2 / 8 (fivebar.response_curves.backbone).
 * Parametrically excited damped Duffing x'' + 2 zeta x' + (a - 2 q cos 2t) x + alpha x^3 = 0,
   continued in a on its trivial orbit: the period doublings are the boundaries of the damped
   first instability tongue (reference: DOP853 monodromy of the linear equation and a root of
@@ -26,7 +26,8 @@ from scipy.optimize import brentq, root
 
 from fivebar.continuation import ContinuationError, continuation, switch_period_doubling
 from fivebar.errors import FivebarError
-from fivebar.multiscale import ModalSystem, backbone
+from fivebar.modal_equations import ModalSystem
+from fivebar.response_curves import backbone
 from fivebar.newmark import System
 from fivebar.periodic import PeriodicProblem, iterate_map, newmark_map
 

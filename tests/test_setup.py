@@ -125,7 +125,8 @@ def test_the_default_scheme_is_defined_once():
 def test_generic_solvers_import_nothing_of_the_linkage():
     import ast
 
-    generic = {"newmark", "_kernels", "eigen", "errors", "newton", "modal_equations", "multiscale", "response_curves"}
+    generic = {"newmark", "_kernels", "_jitcache", "eigen", "errors", "newton", "modal_equations", "multiscale",
+               "response_curves", "periodic", "continuation"}
     for name in sorted(generic):
         tree = ast.parse((LIB / f"{name}.py").read_text())
         local = set()

@@ -151,6 +151,7 @@ except ImportError:  # pragma: no cover - the pinned environment has it
     ThreadpoolController = None
 
 __all__ = [
+    "GENERIC_SCHEME",
     "GeneralizedAlpha",
     "HHT",
     "MAX_ITER",
@@ -291,6 +292,12 @@ class Newmark(Scheme):
                 raise UnstableParametersError(msg + "Pass allow_unstable=True to use them anyway.")
             warnings.warn(msg + "Accepted because allow_unstable=True.", UnstableParametersWarning,
                           stacklevel=3)
+
+
+#: The scheme of the generic integrator when none is given (``integrate``, the generic
+#: periodic-orbit tools of :mod:`fivebar.periodic`): the average-acceleration rule.  The
+#: linkage's default is the parameter file's (:func:`fivebar.setup.default_scheme`).
+GENERIC_SCHEME: Newmark = Newmark()
 
 
 @dataclass(frozen=True)
@@ -802,7 +809,7 @@ def integrate(
         A step whose Newton iteration does not converge within ``max_iter`` (the message names
         the time, the residual norm and the iterations), or a singular tangent.
     """
-    scheme = Newmark() if scheme is None else scheme
+    scheme = GENERIC_SCHEME if scheme is None else scheme
     if not isinstance(scheme, Scheme):
         raise InputTypeError(
             f"scheme = {scheme!r} ({type(scheme).__name__}) is not allowed: give a Newmark, HHT or "

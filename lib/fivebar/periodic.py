@@ -47,7 +47,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import ComputationError, InputError
-from .newmark import (Newmark, NewtonConvergenceError, PeriodicStepData, Scheme, SecondOrderSystem,
+from .newmark import (GENERIC_SCHEME, NewtonConvergenceError, PeriodicStepData, Scheme, SecondOrderSystem,
                       integrate)
 
 __all__ = [
@@ -186,7 +186,7 @@ def newmark_map(family: PeriodicProblem | Callable[[float | None], PeriodicProbl
         prob = problem_at(p)
         x = np.asarray(x, float)
         n = x.size // 2
-        scheme = Newmark() if prob.scheme is None else prob.scheme
+        scheme = GENERIC_SCHEME if prob.scheme is None else prob.scheme
         kw = dict(prob.options)
         kw.setdefault("store", "last")
         if prob.step_data is not None:

@@ -205,8 +205,8 @@ class SteadyState:
             p = self.dynamics.params
             stress = self.bending_stress()
             s_link = max(stress, key=stress.get)
-            lengths = dict(zip(LINKS, p.lengths))
-            defl = {k: float(np.abs(self.midpoint(k, "chord")).max()) * 1e-3 / lengths[k] for k in LINKS}
+            lengths = {k.name: k.length for k in p.linkage.links}
+            defl = {k: float(np.abs(self.midpoint(k, "chord")).max()) * 1e-3 / L for k, L in lengths.items()}
             d_link = max(defl, key=defl.get)
             ratio, period = drive_period(p)
             c = {"peak bending stress (MPa)": float(stress[s_link]) / 1e6, "stress link": s_link,
@@ -236,7 +236,7 @@ class SteadyState:
             est = (self._cache["accuracy"]["S error estimate"], self._cache["accuracy"]["S compared"])
         if est is not None and est[0] > ACCURACY_LIMIT and self.accuracy is None:
             out.append(f"S = {est[1][0]} is about {100 * est[0]:.2g} % off S = {est[1][1]} on the midpoint "
-                       "deflections of L2 and L3: give a larger steps_per_period or tol")
+                       "deflections of the couplers: give a larger steps_per_period or tol")
         return out
 
     def _angles(self):
@@ -767,12 +767,14 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
                     "tol": tol, "estimate": err, "steps": S, "compared_with": prev.dynamics.steps,
                     "method": method, "tried": tried,
                     "choice": (f"S = {S} chosen for tol = {tol:g} ({method}): the transverse midpoint "
-                               f"deflections of L2 and L3 changed by at most {err:.2g} of their peak-to-peak "
+                               f"deflections of {' and '.join(s.params.linkage.couplers)} changed by at most "
+                               f"{err:.2g} of their peak-to-peak "
                                f"value from S = {prev.dynamics.steps} to S = {S}")}
                 return cur
         prev, S = cur, 2 * S
     raise SteadyStateError(
-        f"no S up to {_TOL_MAX_STEPS} reaches tol = {tol:g} on the midpoint deflections of L2 and L3 "
+        f"no S up to {_TOL_MAX_STEPS} reaches tol = {tol:g} on the midpoint deflections of "
+        f"{' and '.join(s.params.linkage.couplers)} "
         f"({'; '.join(tried)}); ask for a larger tol, or solve at a given S (steps_per_period)")
 
 

@@ -115,6 +115,11 @@ def _stop_executor(executor: cf.Executor, futures) -> None:
         if proc.is_alive():
             proc.kill()
             proc.join(1.0)
+    # the call queue's feeder thread may be blocked writing to the dead workers' pipe; joined at
+    # exit it would hang the process for good (CPython's multiprocessing.Queue): let it go
+    queue = getattr(executor, "_call_queue", None)
+    if procs and queue is not None and hasattr(queue, "cancel_join_thread"):
+        queue.cancel_join_thread()
     executor.shutdown(wait=False, cancel_futures=True)
 
 
