@@ -50,6 +50,18 @@ def test_branch_agrees_with_steady_state(setup, branch):
     assert abs(pp - steady_state(setup.replace(crank_speed_rpm=float(br.p[i]))).peak_to_peak("L2")) < 1e-6 * pp
 
 
+def test_validity_of_the_points_agrees_with_steady_state(setup, branch):
+    v = branch.validity()
+    assert len(v) == len(branch.p) and list(v["crank_speed_rpm"]) == list(branch.p)
+    for i in (0, len(branch.p) - 1):
+        ref = steady_state(setup.replace(crank_speed_rpm=float(branch.p[i]))).validity
+        for col, key in (("stress / yield", "stress / yield"), ("deflection / length", "deflection / length")):
+            assert abs(v[col][i] - ref[key]) <= 1e-6 * ref[key]
+        assert v["valid"][i] == ref["valid"]
+    # the stress grows with the speed (the inertial load ~ speed^2 at low speed)
+    assert v["stress / yield"].iloc[-1] > 4 * v["stress / yield"].iloc[0]
+
+
 def test_brute_force_agrees_with_the_continuation_where_stable(setup, branch):
     speeds = [40.0, 60.0, 80.0]
     bf = brute_force_diagram(setup, speeds, transient=60, samples=4)

@@ -28,8 +28,8 @@ _FACADE = {
     "DEFAULT_PARAMS_PATH": "params", "FOURBAR_PARAMS_PATH": "params", "Motor": "params", "ParameterError": "params",
     "Params": "params", "load_params": "params",
     "campbell_diagram": "resonance", "resonance_table": "resonance",
-    "SteadyState": "steady", "SteadyStateError": "steady", "steady_state": "steady",
-    "speed_sweep": "sweep",
+    "SteadyState": "steady", "SteadyStateError": "steady", "ValidityWarning": "steady", "steady_state": "steady",
+    "SweepInterrupted": "sweep", "speed_sweep": "sweep",
 }
 
 
@@ -54,6 +54,8 @@ __all__ = [
     "FivebarError",
     "PAPER_SCHEME",
     "Setup",
+    "SweepInterrupted",
+    "ValidityWarning",
     "GeneralizedAlpha",
     "GeometryError",
     "HHT",

@@ -207,6 +207,25 @@ class LinkageBranch:
                                       for i in range(len(self.branch.points))])
         return self._pp[key]
 
+    def validity(self) -> "pd.DataFrame":
+        """The model's validity at every point, as for a steady state
+        (:attr:`fivebar.steady.SteadyState.validity`, its cheap checks): one row per point with
+        the parameter, ``peak stress (MPa)``, ``stress / yield`` (the file's ``yield_stress``),
+        ``deflection / length`` (against :data:`fivebar.steady.DEFLECTION_LIMIT`, the
+        small-deflection range), ``stable`` and ``valid``.  One period integrated per point
+        (kept)."""
+        if "validity" not in self._pp:
+            import pandas as pd
+
+            rows = []
+            for i, q in enumerate(self.branch.points):
+                c = self.steady(i)._checks()
+                rows.append({self.parameter: float(q.p), "peak stress (MPa)": c["peak bending stress (MPa)"],
+                             "stress / yield": c["stress / yield"], "deflection / length": c["deflection / length"],
+                             "stable": bool(self.branch.stable[i]), "valid": bool(c["valid"])})
+            self._pp["validity"] = pd.DataFrame(rows)
+        return self._pp["validity"].copy()
+
     def orbit_at(self, p: float, tol: float = 1e-10) -> PeriodicOrbit:
         """The branch's orbit at ``p`` exactly: the nearest point's orbit shot at ``p``
         (the first segment of the branch that contains ``p``)."""
