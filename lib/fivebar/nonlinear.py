@@ -46,7 +46,8 @@ gradient rows :math:`\mathbf D_p = \partial e_p/\partial\mathbf q`, the force an
 
 .. math::
 
-    \mathbf f = \sum_p EA\,w_p\, e_p\,\mathbf a + \sum_p N_p\,\mathbf D_p ,\qquad
+    \mathbf f = \sum_p EA\,w_p\, e_p\,\mathbf a + \sum_p N_p\,\mathbf D_p ,
+
     \mathbf K = \sum_p EA\,w_p\big(\mathbf D_p(\mathbf a + \mathbf D_p)^\top
         + \mathbf a\mathbf D_p^\top\big) + \sum_p N_p\,\frac{\partial^2 e_p}{\partial\mathbf q^2},
 
