@@ -296,11 +296,21 @@ class Model:
         element's shape functions.
         """
         *theta, link, s = args
+        self._check_link_point(link, s)
+        return self.link_point(self.element_displacements(u, *theta, mode=mode), link, s, derivative)
+
+    def _check_link_point(self, link: str, s: float) -> None:
         if not 0.0 <= s <= 1.0:
             raise InputError(f"s = {s!r} is not allowed: give a fraction of the link in [0, 1]")
         if link not in self.linkage.link_names:
             raise InputError(f"link = {link!r} is not allowed: use one of {list(self.linkage.link_names)}")
-        q = self.element_displacements(u, *theta, mode=mode)
+
+    def link_point(self, q: ArrayLike, link: str, s: float, derivative: int = 0) -> tuple[NDArray, NDArray]:
+        """:meth:`link_displacement` from the element displacements ``q`` already computed
+        (:meth:`element_displacements`, shape ``(..., n_elements, 8)``): for several points of
+        one state history, compute ``q`` once."""
+        self._check_link_point(link, s)
+        q = np.asarray(q, float)
         rev = self._reversed(link)
         sc = 1.0 - s if rev else s
         els = [i for i, el in enumerate(self.elements) if el.link == link]

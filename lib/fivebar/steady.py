@@ -263,16 +263,23 @@ class SteadyState:
         if direction not in _DIRECTIONS:
             raise InputError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
         m = self.dynamics.model
-        U = self.dynamics.expand(self.u)
-        th = self._angles()
-        ax, tr = m.link_displacement(U, *th, link, 0.5)
+        q = self._element_displacements()
+        ax, tr = m.link_point(q, link, 0.5)
         if direction == "longitudinal":
             return 1e3 * ax
         if direction == "transverse":
             return 1e3 * tr
-        _, tr0 = m.link_displacement(U, *th, link, 0.0)
-        _, tr1 = m.link_displacement(U, *th, link, 1.0)
+        _, tr0 = m.link_point(q, link, 0.0)
+        _, tr1 = m.link_point(q, link, 1.0)
         return 1e3 * (tr - 0.5 * (tr0 + tr1))
+
+    def _element_displacements(self) -> NDArray:
+        """The elements' local DOFs over the period, (S + 1, n_elements, 8), computed once for
+        every midpoint, deflection and stress of this result."""
+        if "q" not in self._cache:
+            self._cache["q"] = self.dynamics.model.element_displacements(self.dynamics.expand(self.u),
+                                                                         *self._angles())
+        return self._cache["q"]
 
     def peak_to_peak(self, link: str, direction: str = "transverse") -> float:
         """Peak-to-peak value (mm) of :meth:`midpoint` over the period."""
@@ -290,7 +297,7 @@ class SteadyState:
         if key not in self._cache:
             dyn = self.dynamics
             m, p = dyn.model, dyn.params
-            q = m.element_displacements(dyn.expand(self.u), *self._angles())  # (S+1, nel, 8)
+            q = self._element_displacements()  # (S+1, nel, 8)
             out: dict[str, float] = {}
             for i, el in enumerate(m.elements):
                 N2 = shape_functions(np.linspace(0.0, el.length, points), el.length, derivative=2)
