@@ -47,7 +47,7 @@ def main() -> None:
             rows[f"{rpm:g} r/min"] = {
                 "scheme": repr(s.scheme), "S": s.steps_per_period,
                 "max_multiplier": float(np.abs(res.floquet_multipliers).max()),
-                **{f"{k} p2p error": res.peak_to_peak(k) / ref.peak_to_peak(k) - 1.0 for k in ("L2", "L3")},
+                **{f"{k} p2p error": res.peak_to_peak_mm(k) / ref.peak_to_peak_mm(k) - 1.0 for k in ("L2", "L3")},
             }
         out["accuracy"] = rows
     print(json.dumps(out, indent=1))

@@ -75,7 +75,7 @@ def timed(fn, repeats: int) -> tuple[float, object]:
 
 def accuracy(ss: SteadyState, ref: dict[str, float]) -> dict[str, float]:
     """Relative error of the peak-to-peak transverse midpoint deflection, per link."""
-    return {L: ss.peak_to_peak(L) / ref[L] - 1.0 for L in LINKS}
+    return {L: ss.peak_to_peak_mm(L) / ref[L] - 1.0 for L in LINKS}
 
 
 def sweep_state(P, w: float) -> SteadyState:
@@ -95,7 +95,7 @@ def single_blas_thread() -> None:
 def sweep_chunk(speeds: list[float]) -> list[float]:
     """Worker: sweep points at the given speeds (r/min)."""
     P = load_params()
-    return [sweep_state(P, w).peak_to_peak("L3") for w in speeds]
+    return [sweep_state(P, w).peak_to_peak_mm("L3") for w in speeds]
 
 
 def bench_steps(P, R: int) -> dict:
@@ -172,7 +172,7 @@ def radau_from_rest(P, rtol: float, periods: int = 2, motors: bool = True) -> tu
 
 def bench_to_steady(P, R: int, radau_runs: int) -> dict:
     t_ref, ref_ss = timed(lambda: steady_state(P, steps_per_period=1600), 1)
-    ref = {L: ref_ss.peak_to_peak(L) for L in LINKS}
+    ref = {L: ref_ss.peak_to_peak_mm(L) for L in LINKS}
     out: dict = {
         "reference": {"method": f"shooting, {scheme_name(Setup(P).scheme)}, S=1600, nonlinear",
                       "peak_to_peak_um": {L: 1e3 * v for L, v in ref.items()},

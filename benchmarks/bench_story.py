@@ -80,7 +80,7 @@ def _curve_error(res, ref):
     relative to the reference's peak-to-peak value."""
     import numpy as np
     k = ref.dynamics.steps // res.dynamics.steps
-    return max(float(np.abs(res.midpoint(L) - ref.midpoint(L)[::k]).max() / np.ptp(ref.midpoint(L)))
+    return max(float(np.abs(res.midpoint_mm(L) - ref.midpoint_mm(L)[::k]).max() / np.ptp(ref.midpoint_mm(L)))
                for L in ("L2", "L3"))
 
 
@@ -123,7 +123,7 @@ def steady_costs(repeats):
                 "tol_estimate": r.accuracy["estimate"], "tol_true_error": _curve_error(r, ref),
                 "default_first": 1e3 * dfirst, "default_repeat": 1e3 * drep, "default_S": d.dynamics.steps,
                 "default_true_error": _curve_error(d, ref), "march": 1e3 * mar,
-                "periods_default": d.periods, "periods_march": m.periods, "L2_p2p_mm": ref.peak_to_peak("L2")}
+                "periods_default": d.periods, "periods_march": m.periods, "L2_p2p_mm": ref.peak_to_peak_mm("L2")}
     return out
 
 
@@ -138,8 +138,8 @@ def radau_cost(quick):
     ref = steady_state(p, steps_per_period=3200, motors=False)
     el, ss, stats = radau_from_rest(p, 1e-3, periods=4, motors=False)  # 3 periods of transient
     ref_ss = steady_state(p, steps_per_period=ss.dynamics.steps, motors=False)
-    return {"s": el, "runs": 1, "rtol": 1e-3, "periods": 4, "L2_p2p_mm": ss.peak_to_peak("L2"),
-            "p2p_rel_err": {L: ss.peak_to_peak(L) / ref.peak_to_peak(L) - 1 for L in ("L2", "L3")},
+    return {"s": el, "runs": 1, "rtol": 1e-3, "periods": 4, "L2_p2p_mm": ss.peak_to_peak_mm("L2"),
+            "p2p_rel_err": {L: ss.peak_to_peak_mm(L) / ref.peak_to_peak_mm(L) - 1 for L in ("L2", "L3")},
             "curve_error_vs_same_S_orbit": _curve_error(ss, ref_ss), **stats}
 
 
@@ -152,14 +152,14 @@ def exudyn_cost(quick):
         return {"note": f"not measured: {exc}"}
     p = load_params()
     ref = steady_state(p, crank_speed_rpm=300, motors=False, steps_per_period=1600, elements_per_link=(2, 4, 4, 2))
-    a_ref = ref.peak_to_peak("L2")
+    a_ref = ref.peak_to_peak_mm("L2")
     out = {"ked_reference_L2_p2p_mm": a_ref, "ked_reference": "S = 1600, mesh (2,4,4,2), 300 r/min, motors off"}
     rows = []
     for steps, mesh in ((100, (1, 2, 2, 1)), (200, (1, 2, 2, 1)), (200, (2, 4, 4, 2))):
         try:
             dt, r = _t(lambda: multibody_steady_state(p, crank_speed_rpm=300, steps_per_period=steps,
                                                       samples=100, elements_per_link=mesh, tol=0.01))
-            a = r.peak_to_peak("L2") if hasattr(r, "peak_to_peak") else float(r.midpoint("L2").ptp())
+            a = r.peak_to_peak_mm("L2") if hasattr(r, "peak_to_peak_mm") else float(r.midpoint_mm("L2").ptp())
             rows.append({"steps": steps, "mesh": mesh, "ms": 1e3 * dt, "L2_p2p_mm": a, "rel_err": a / a_ref - 1})
         except Exception as exc:  # noqa: BLE001 - reported
             rows.append({"steps": steps, "mesh": mesh, "error": f"{type(exc).__name__}: {str(exc)[:200]}"})

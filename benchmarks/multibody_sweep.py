@@ -37,7 +37,7 @@ QUANTITIES = [(link, d) for link in ("L2", "L3") for d in ("transverse", "chord"
 
 
 def p2p(res) -> dict[str, float]:
-    return {f"{link}_{d}": res.peak_to_peak(link, d) for link, d in QUANTITIES}
+    return {f"{link}_{d}": res.peak_to_peak_mm(link, d) for link, d in QUANTITIES}
 
 
 def ked(params, rpm, nonlinear, steps=S_LIB, **replace):

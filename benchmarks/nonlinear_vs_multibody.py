@@ -38,7 +38,7 @@ LINKS = ("L2", "L3")
 
 
 def _p2p(res) -> dict[str, float]:
-    return {link: res.peak_to_peak(link, "transverse") for link in LINKS}
+    return {link: res.peak_to_peak_mm(link, "transverse") for link in LINKS}
 
 
 def ked(params, rpm, nonlinear=True, mesh=MESH, steps=S, motors=False):

@@ -32,20 +32,20 @@ def test_linkage_frames_show_the_midpoint_deflection_times_the_scale(steady):
     fr = animation.linkage_frames(steady, scale=300.0, frames=8)
     S = len(steady.t) - 1
     idx = np.round(np.arange(8) * S / 8).astype(int)
-    np.testing.assert_allclose(fr.crank_angle, steady.crank_angle[idx])
+    np.testing.assert_allclose(fr.crank_angle_deg, steady.crank_angle_deg[idx])
     for link in ("L2", "L3"):
-        rig, dfm = fr.rigid[link], fr.deformed[link]
+        rig, dfm = fr.rigid_mm[link], fr.deformed_mm[link]
         mid = rig.shape[1] // 2
         e = rig[:, -1] - rig[:, 0]
         e /= np.linalg.norm(e, axis=1, keepdims=True)
         normal = np.stack([-e[:, 1], e[:, 0]], axis=1)
         shown = np.einsum("ij,ij->i", dfm[:, mid] - rig[:, mid], normal) / 300.0  # mm
-        np.testing.assert_allclose(shown, steady.midpoint(link)[idx], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(shown, steady.midpoint_mm(link)[idx], rtol=1e-9, atol=1e-12)
 
 
 def test_default_scale_makes_the_deflection_visible_but_not_huge(steady, params):
     fr = animation.linkage_frames(steady, frames=4)
-    shown = fr.scale * fr.peak  # mm on the drawing
+    shown = fr.scale * fr.peak_mm  # mm on the drawing
     assert 0.08 * 1e3 * params.L2 / 2.5 < shown <= 0.08 * 1e3 * params.L2 * (1 + 1e-9)
     assert fr.scale == animation.nice_scale(fr.scale)
 
@@ -53,13 +53,13 @@ def test_default_scale_makes_the_deflection_visible_but_not_huge(steady, params)
 def test_mode_frames_frequencies_and_normalisation(params):
     fr = animation.mode_frames(params, n=2, frames=6)
     for i in (0, 4):
-        th1, _, _, th4, _, _ = crank_laws(params, np.radians(fr.crank_angle[i]) / params.crank_speed)
+        th1, _, _, th4, _, _ = crank_laws(params, np.radians(fr.crank_angle_deg[i]) / params.crank_speed)
         np.testing.assert_allclose(fr.frequencies[i], fivebar.natural_frequencies(params, float(th1), float(th4), n=2),
                                    rtol=1e-10)
-    for shape in fr.shapes:
-        disp = np.stack([shape[L] - fr.rigid[L] for L in fr.rigid], axis=1)  # (F, links, points, 2)
+    for shape in fr.shapes_mm:
+        disp = np.stack([shape[L] - fr.rigid_mm[L] for L in fr.rigid_mm], axis=1)  # (F, links, points, 2)
         peak = np.linalg.norm(disp, axis=-1).max(axis=(1, 2))
-        np.testing.assert_allclose(peak, fr.amplitude, rtol=1e-9)
+        np.testing.assert_allclose(peak, fr.amplitude_mm, rtol=1e-9)
         flat = disp.reshape(len(peak), -1)
         assert np.all(np.einsum("ij,ij->i", flat[1:], flat[:-1]) > 0)  # the sign follows the cycle
 

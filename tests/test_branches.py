@@ -46,8 +46,8 @@ def test_branch_agrees_with_steady_state(setup, branch):
     assert np.abs(o.x - x).max() <= 1e-6 * np.abs(x).max()
     # the deflection of a stored point against steady_state's
     i = len(br.p) // 2
-    pp = br.steady(i).peak_to_peak("L2")
-    assert abs(pp - steady_state(setup.replace(crank_speed_rpm=float(br.p[i]))).peak_to_peak("L2")) < 1e-6 * pp
+    pp = br.steady(i).peak_to_peak_mm("L2")
+    assert abs(pp - steady_state(setup.replace(crank_speed_rpm=float(br.p[i]))).peak_to_peak_mm("L2")) < 1e-6 * pp
 
 
 def test_validity_of_the_points_agrees_with_steady_state(setup, branch):

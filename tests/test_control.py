@@ -251,7 +251,7 @@ def test_reference_from_the_prescribed_steady_state():
     W = FL.elastic_midpoint_rows(laws[0], laws[3])
     w = np.einsum("kij,kj->ki", W, Pr)
     for c, link in enumerate(("L2", "L3")):
-        assert np.allclose(1e3 * w[:, c], ref.midpoint(link)[:S], rtol=1e-10, atol=1e-12)
+        assert np.allclose(1e3 * w[:, c], ref.midpoint_mm(link)[:S], rtol=1e-10, atol=1e-12)
 
 
 def test_simulation_steady_state_and_reference():
@@ -266,7 +266,7 @@ def test_simulation_steady_state_and_reference():
     assert sim.periodicity() < 1e-4
     ideal = steady_state(P, steps_per_period=S, nonlinear=False)
     for link in ("L2", "L3"):
-        assert abs(sim.peak_to_peak(link) / (1e-3 * ideal.peak_to_peak(link)) - 1) < 0.01
+        assert abs(sim.peak_to_peak(link) / (1e-3 * ideal.peak_to_peak_mm(link)) - 1) < 0.01
     assert np.abs(sim.error).max() < 1e-4
     # extra gains acting on the deviation from sim's own steady motion change nothing there
     extra = np.stack(servo.gains(FL))  # a second PD loop (stable), on the deviation

@@ -60,7 +60,7 @@ def test_figure6_curves_periodic_and_converged(written, params):
             y = df[f"{link} {direction} (um)"].to_numpy()
             span = y.max() - y.min()
             assert abs(y[-1] - y[0]) < 1e-6 * span
-            np.testing.assert_allclose(y[::2], 1e3 * coarse.midpoint(link, direction), atol=0.01 * span)
+            np.testing.assert_allclose(y[::2], 1e3 * coarse.midpoint_mm(link, direction), atol=0.01 * span)
 
 
 def test_resonance_speeds_satisfy_their_conditions(written, params):

@@ -62,8 +62,8 @@ def test_newmark_against_radau_on_the_full_model():
     assert sol.success
     radau = SteadyState(d, ts, sol.y[:n].T, sol.y[n:].T, "radau", 1)
     for link in ("L2", "L3"):
-        err = np.abs(ss.midpoint(link)[:33:8] - radau.midpoint(link)).max()
-        assert err < 1e-5 * ss.peak_to_peak(link)
+        err = np.abs(ss.midpoint_mm(link)[:33:8] - radau.midpoint_mm(link)).max()
+        assert err < 1e-5 * ss.peak_to_peak_mm(link)
 
 
 def test_quasi_static_limit_and_speed_scaling():
@@ -74,7 +74,7 @@ def test_quasi_static_limit_and_speed_scaling():
     ss = shooting(d)
     us = d.quasi_static(ss.t)
     assert np.abs(ss.u - us).max() < 1e-3 * np.abs(us).max()
-    pp = [steady_state(P, crank_speed_rpm=w, nonlinear=False, scheme=GeneralizedAlpha(0.9)).peak_to_peak("L3") for w in (3.0, 6.0)]
+    pp = [steady_state(P, crank_speed_rpm=w, nonlinear=False, scheme=GeneralizedAlpha(0.9)).peak_to_peak_mm("L3") for w in (3.0, 6.0)]
     assert pp[1] / pp[0] == pytest.approx(4.0, rel=2e-3)
 
 
@@ -86,7 +86,7 @@ def test_march_reaches_the_shooting_orbit_with_a_stable_scheme():
     mr = march(d, scheme=sch, tol=1e-9)
     assert mr.periods > 1
     for link in ("L2", "L3"):
-        assert np.allclose(mr.midpoint(link), sh.midpoint(link), atol=1e-6 * sh.peak_to_peak(link))
+        assert np.allclose(mr.midpoint_mm(link), sh.midpoint_mm(link), atol=1e-6 * sh.peak_to_peak_mm(link))
 
 
 def test_paper_rule_at_S100_gives_an_unstable_discrete_orbit():
@@ -101,18 +101,18 @@ def test_paper_rule_at_S100_gives_an_unstable_discrete_orbit():
     ref = shooting(LinkageDynamics(P, nonlinear=False, steps_per_period=1600))
     assert ref.stable
     # the unstable S = 100 orbit is nonetheless an accurate one
-    assert sh.peak_to_peak("L2") == pytest.approx(ref.peak_to_peak("L2"), rel=3e-3)
+    assert sh.peak_to_peak_mm("L2") == pytest.approx(ref.peak_to_peak_mm("L2"), rel=3e-3)
 
 
 def test_directions_and_errors():
     ss = steady_state(P, nonlinear=False, scheme=GeneralizedAlpha(0.8), steps_per_period=50)
-    assert ss.midpoint("L2").shape == (51,) and ss.crank_angle[-1] == pytest.approx(360.0)
+    assert ss.midpoint_mm("L2").shape == (51,) and ss.crank_angle_deg[-1] == pytest.approx(360.0)
     # pure bending is smaller than the total transverse motion (which carries the joints)
-    assert ss.peak_to_peak("L2", "chord") < ss.peak_to_peak("L2", "transverse")
+    assert ss.peak_to_peak_mm("L2", "chord") < ss.peak_to_peak_mm("L2", "transverse")
     with pytest.raises(ValueError, match="direction = 'sideways'"):
-        ss.midpoint("L2", "sideways")
+        ss.midpoint_mm("L2", "sideways")
     with pytest.raises(ValueError, match="link = 'L5'"):
-        ss.midpoint("L5")
+        ss.midpoint_mm("L5")
     with pytest.raises(ValueError, match="method = 'euler'"):
         steady_state(P, method="euler")
     with pytest.raises(ValueError, match="steps_per_period = 1"):
@@ -157,7 +157,7 @@ def test_march_from_rest_reaches_the_nonlinear_shooting_orbit():
     mr = march(d, scheme=sch, tol=1e-7)
     sh = shooting(d, scheme=sch)
     for link in ("L2", "L3"):
-        assert np.allclose(mr.midpoint(link), sh.midpoint(link), atol=1e-5 * sh.peak_to_peak(link))
+        assert np.allclose(mr.midpoint_mm(link), sh.midpoint_mm(link), atol=1e-5 * sh.peak_to_peak_mm(link))
 
 
 def test_thin_section_nonlinear_shooting_starts_from_the_nonlinear_static_state():
@@ -185,10 +185,10 @@ def test_thin_section_nonlinear_shooting_starts_from_the_nonlinear_static_state(
     ss = shooting(dyn, scheme=scheme)
     assert ss.stable
     mr = march(dyn, scheme=scheme, tol=1e-8)
-    assert np.allclose(ss.midpoint("L2"), mr.midpoint("L2"), rtol=0, atol=1e-5 * np.ptp(ss.midpoint("L2")) + 1e-12)
+    assert np.allclose(ss.midpoint_mm("L2"), mr.midpoint_mm("L2"), rtol=0, atol=1e-5 * np.ptp(ss.midpoint_mm("L2")) + 1e-12)
     rows = json.loads((Path(__file__).parents[1] / "data" / "multibody_sweep.json").read_text())["rows"]
     ex = next(r["exudyn"]["L2_transverse"] for r in rows if r["bending_depth_mm"] == 2.0 and r["rpm"] == 30)
-    assert ss.peak_to_peak("L2") == pytest.approx(ex, rel=0.015)
+    assert ss.peak_to_peak_mm("L2") == pytest.approx(ex, rel=0.015)
 
 
 def test_model_sampled_once_for_all_speeds_equals_direct_sampling():
@@ -274,7 +274,7 @@ def test_steady_state_to_a_tolerance_meets_it_against_a_fine_reference(rpm, nonl
         res = steady_state(P, tol=tol, **s)
         steps.append(res.dynamics.steps)
         S = res.dynamics.steps
-        err = max(np.abs(res.midpoint(k) - ref.midpoint(k)[:: 3200 // S]).max() / np.ptp(ref.midpoint(k))
+        err = max(np.abs(res.midpoint_mm(k) - ref.midpoint_mm(k)[:: 3200 // S]).max() / np.ptp(ref.midpoint_mm(k))
                   for k in ("L2", "L3"))
         assert err <= tol and err <= res.accuracy["estimate"]
         assert res.accuracy["compared_with"] == S // 2 and f"S = {S} chosen" in res.note
@@ -309,7 +309,7 @@ def test_newton_picard_shooting_reaches_the_newton_orbit(nonlinear, monkeypatch)
     monkeypatch.setattr(st, "_DENSE_MAX_DOFS", 10**6)
     newton = shooting(LinkageDynamics(P, **s), scheme=GeneralizedAlpha(0.8))
     for link in ("L2", "L3"):
-        a, b = picard.midpoint(link), newton.midpoint(link)
+        a, b = picard.midpoint_mm(link), newton.midpoint_mm(link)
         assert np.abs(a - b).max() <= 1e-7 * np.ptp(b)
     assert np.allclose(picard.floquet_multipliers[:4], newton.floquet_multipliers[:4], rtol=1e-6)
 

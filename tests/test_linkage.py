@@ -230,6 +230,6 @@ def test_four_bar_steady_response_against_the_multibody_model():
     ked = fivebar.steady_state(FOUR, crank_speed_rpm=600, steps_per_period=400, elements_per_link=(2, 4, 4))
     for link in ("coupler", "rocker"):
         for d in ("transverse", "chord"):
-            y_mb, y = mb.midpoint(link, d), ked.midpoint(link, d)[::4]
+            y_mb, y = mb.midpoint_mm(link, d), ked.midpoint_mm(link, d)[::4]
             assert np.ptp(y) > 0.02  # mm: a response well above round-off
             assert np.abs(y_mb - y).max() < 0.01 * np.ptp(y), (link, d)

@@ -33,13 +33,13 @@ def test_default_steady_state_is_stable_and_converged(rpm):
     assert np.abs(res.floquet_multipliers).max() < 1.0 and res.stable and res.note.startswith("stable")
     for link in ("L2", "L3"):
         # 0.2 % at 600 r/min: the unlocked membrane strain (errata E30) is more S-sensitive than the literal
-        assert res.peak_to_peak(link) == pytest.approx(ref.peak_to_peak(link), rel=3e-3)
+        assert res.peak_to_peak_mm(link) == pytest.approx(ref.peak_to_peak_mm(link), rel=3e-3)
 
 
 def test_default_march_agrees_with_shooting():
     s, m = steady_state(P), steady_state(P, method="march")
     for link in ("L2", "L3"):
-        assert m.peak_to_peak(link) == pytest.approx(s.peak_to_peak(link), rel=1e-2)
+        assert m.peak_to_peak_mm(link) == pytest.approx(s.peak_to_peak_mm(link), rel=1e-2)
 
 
 def test_parameter_file_entries_are_the_defaults():
@@ -76,7 +76,7 @@ def test_damped_shooting_converges_with_the_paper_rule_at_114_rpm():
     assert res.residual <= 1e-10
     # the orbit is the physical one: close to the default scheme's converged orbit
     ref = steady_state(P, crank_speed_rpm=114)
-    assert res.peak_to_peak("L2") == pytest.approx(ref.peak_to_peak("L2"), rel=0.02)
+    assert res.peak_to_peak_mm("L2") == pytest.approx(ref.peak_to_peak_mm("L2"), rel=0.02)
 
 
 def _modules():

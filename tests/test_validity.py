@@ -86,7 +86,7 @@ def test_accuracy_estimate_against_a_converged_solution(params):
     ref = fivebar.steady_state(_linear(params, 600, 1600))
     est = coarse.validity["S error estimate"]
     assert coarse.validity["S compared"] == (100, 200)
-    true = max(float(np.abs(coarse.midpoint(k) - ref.midpoint(k)[::16]).max() / np.ptp(ref.midpoint(k)))
+    true = max(float(np.abs(coarse.midpoint_mm(k) - ref.midpoint_mm(k)[::16]).max() / np.ptp(ref.midpoint_mm(k)))
                for k in ("L2", "L3"))
     assert 0.5 < est / true < 1.2
     if est > 0.01:

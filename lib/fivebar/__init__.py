@@ -6,7 +6,7 @@ controllable close-chain linkage mechanism system*, Mathematical Problems in Eng
 2011, 254547.  Equation numbers in docstrings are the paper's.
 
 The facade below is what the chapters use; the modules hold the rest.  Units at the API: SI,
-or the unit in the name (``crank_speed_rpm``, ``midpoint(...)`` in mm as its docstring says).
+or the unit in the name (``crank_speed_rpm``, ``SteadyState.midpoint_mm``, ``crank_angle_deg``).
 """
 
 # The facade is lazy (PEP 562): ``import fivebar`` loads no heavy module (scipy submodules,
@@ -33,11 +33,20 @@ _FACADE = {
 }
 
 
+# Modules a chapter reaches as ``fivebar.<module>`` without importing them first.
+_SUBMODULES = ("chapter",)
+
+
 def __getattr__(name: str):
+    import importlib
+
+    if name in _SUBMODULES:
+        value = importlib.import_module(f".{name}", __name__)
+        globals()[name] = value
+        return value
     module = _FACADE.get(name)
     if module is None:
         raise AttributeError(f"module 'fivebar' has no attribute {name!r}")
-    import importlib
 
     value = getattr(importlib.import_module(f".{module}", __name__), name)
     globals()[name] = value

@@ -82,16 +82,16 @@ def _shapes(model, U: NDArray, th1: NDArray, th4: NDArray, points: int) -> tuple
 class LinkageFrames:
     """The deformed linkage over one crank turn, ready to draw.
 
-    ``crank_angle`` (deg, frames); ``rigid`` and ``deformed``: link -> (frames, points, 2)
-    in mm, ``deformed`` = rigid + ``scale`` x elastic displacement; ``peak`` the largest
+    ``crank_angle_deg`` (frames); ``rigid_mm`` and ``deformed_mm``: link -> (frames, points, 2)
+    in mm, ``deformed_mm`` = rigid + ``scale`` x elastic displacement; ``peak_mm`` the largest
     elastic displacement of any point over the turn (mm, unscaled).
     """
 
-    crank_angle: NDArray
-    rigid: dict[str, NDArray]
-    deformed: dict[str, NDArray]
+    crank_angle_deg: NDArray
+    rigid_mm: dict[str, NDArray]
+    deformed_mm: dict[str, NDArray]
     scale: float
-    peak: float
+    peak_mm: float
 
 
 def linkage_frames(steady, scale: float | None = None, frames: int = 48, points: int = _POINTS) -> LinkageFrames:
@@ -121,7 +121,7 @@ def linkage_frames(steady, scale: float | None = None, frames: int = 48, points:
     if scale is None:
         scale = nice_scale(0.08 * dyn.params.L2 / peak) if peak > 0 else 1.0
     deformed = {k: 1e3 * (rigid[k] + scale * elastic[k]) for k in rigid}
-    return LinkageFrames(steady.crank_angle[idx], {k: 1e3 * v for k, v in rigid.items()}, deformed,
+    return LinkageFrames(steady.crank_angle_deg[idx], {k: 1e3 * v for k, v in rigid.items()}, deformed,
                          float(scale), 1e3 * peak)
 
 
@@ -129,18 +129,18 @@ def linkage_frames(steady, scale: float | None = None, frames: int = 48, points:
 class ModeFrames:
     """The lowest modes along the cycle, ready to draw.
 
-    ``crank_angle`` (deg, frames); ``frequencies`` (Hz, frames x n); ``rigid``: link ->
-    (frames, points, 2) mm; ``shapes``: list over modes of link -> (frames, points, 2) mm,
+    ``crank_angle_deg`` (frames); ``frequencies`` (Hz, frames x n); ``rigid_mm``: link ->
+    (frames, points, 2) mm; ``shapes_mm``: list over modes of link -> (frames, points, 2) mm,
     the deformed linkage with the mode normalised to a largest displacement of
-    ``amplitude`` mm; ``curve_angle`` and ``curve`` the frequencies on a fine grid (deg, Hz).
+    ``amplitude_mm`` mm; ``curve_angle_deg`` and ``curve`` the frequencies on a fine grid (deg, Hz).
     """
 
-    crank_angle: NDArray
+    crank_angle_deg: NDArray
     frequencies: NDArray
-    rigid: dict[str, NDArray]
-    shapes: list[dict[str, NDArray]]
-    amplitude: float
-    curve_angle: NDArray
+    rigid_mm: dict[str, NDArray]
+    shapes_mm: list[dict[str, NDArray]]
+    amplitude_mm: float
+    curve_angle_deg: NDArray
     curve: NDArray
 
 
@@ -298,26 +298,26 @@ def animate_linkage(steady, scale: float | None = None, frames: int = 48, dpi: i
     data = linkage_frames(steady, scale, frames)
     fig, ax = plt.subplots(figsize=(5.0, 4.2), layout="constrained")
     try:
-        _limits(ax, list(data.rigid.values()) + list(data.deformed.values()))
+        _limits(ax, list(data.rigid_mm.values()) + list(data.deformed_mm.values()))
         ax.set_xlabel("x (mm)")
         ax.set_ylabel("y (mm)")
         ax.plot([0, 1e3 * steady.dynamics.params.L5], [0, 0], "--", color="0.5", lw=1)
-        ghosts = {k: ax.plot([], [], color="0.75", lw=1.2)[0] for k in data.rigid}
-        lines = {k: ax.plot([], [], color=LINK_COLORS[k], lw=2.2, label=k)[0] for k in data.deformed}
+        ghosts = {k: ax.plot([], [], color="0.75", lw=1.2)[0] for k in data.rigid_mm}
+        lines = {k: ax.plot([], [], color=LINK_COLORS[k], lw=2.2, label=k)[0] for k in data.deformed_mm}
         joints = ax.plot([], [], "o", ms=4, mfc="white", mec="black")[0]
         ax.legend(loc="upper right", ncols=4, fontsize=8)
         title = ax.set_title("")
 
         def update(i: int) -> None:
-            for k in data.rigid:
-                ghosts[k].set_data(*data.rigid[k][i].T)
-                lines[k].set_data(*data.deformed[k][i].T)
-            ends = np.array([data.deformed[k][i][[0, -1]] for k in data.deformed]).reshape(-1, 2)
+            for k in data.rigid_mm:
+                ghosts[k].set_data(*data.rigid_mm[k][i].T)
+                lines[k].set_data(*data.deformed_mm[k][i].T)
+            ends = np.array([data.deformed_mm[k][i][[0, -1]] for k in data.deformed_mm]).reshape(-1, 2)
             joints.set_data(*ends.T)
-            title.set_text(f"elastic deflection × {data.scale:g} (peak {1e3 * data.peak:.0f} µm);  "
-                           f"crank angle {data.crank_angle[i]:.0f}°")
+            title.set_text(f"elastic deflection × {data.scale:g} (peak {1e3 * data.peak_mm:.0f} µm);  "
+                           f"crank angle {data.crank_angle_deg[i]:.0f}°")
 
-        png, w, h = _render(fig, update, len(data.crank_angle), dpi)
+        png, w, h = _render(fig, update, len(data.crank_angle_deg), dpi)
     finally:
         plt.close(fig)
     return Animation(png, interval, f"Linkage over one crank turn, elastic deflection x {data.scale:g}", w, h)
@@ -342,16 +342,16 @@ def animate_modes(params: Params, n: int = 3, frames: int = 36, dpi: int = 64, i
         arts = []
         for k in range(n):
             ax = axes[k]
-            _limits(ax, list(data.rigid.values()) + [v for s in data.shapes for v in s.values()])
+            _limits(ax, list(data.rigid_mm.values()) + [v for s in data.shapes_mm for v in s.values()])
             ax.set_xticks([])
             ax.set_yticks([])
             ax.grid(False)
-            ghosts = {L: ax.plot([], [], color="0.75", lw=1.2)[0] for L in data.rigid}
-            lines = {L: ax.plot([], [], color=LINK_COLORS[L], lw=2.0)[0] for L in data.rigid}
+            ghosts = {L: ax.plot([], [], color="0.75", lw=1.2)[0] for L in data.rigid_mm}
+            lines = {L: ax.plot([], [], color=LINK_COLORS[L], lw=2.0)[0] for L in data.rigid_mm}
             arts.append((ax.set_title(""), ghosts, lines))
         axc = axes[n]
         for k in range(n):
-            axc.plot(data.curve_angle, data.curve[:, k], color=PALETTE[k], lw=1.5, label=f"mode {k + 1}")
+            axc.plot(data.curve_angle_deg, data.curve[:, k], color=PALETTE[k], lw=1.5, label=f"mode {k + 1}")
         marker = axc.axvline(0.0, color="0.3", lw=1)
         dots = axc.scatter(np.zeros(n), data.frequencies[0], color=PALETTE[:n], zorder=3, s=18)
         axc.set_xlim(0, 360)
@@ -364,16 +364,16 @@ def animate_modes(params: Params, n: int = 3, frames: int = 36, dpi: int = 64, i
 
         def update(i: int) -> None:
             for k, (title, ghosts, lines) in enumerate(arts):
-                for L in data.rigid:
-                    ghosts[L].set_data(*data.rigid[L][i].T)
-                    lines[L].set_data(*data.shapes[k][L][i].T)
+                for L in data.rigid_mm:
+                    ghosts[L].set_data(*data.rigid_mm[L][i].T)
+                    lines[L].set_data(*data.shapes_mm[k][L][i].T)
                 title.set_text(f"mode {k + 1}: {data.frequencies[i, k]:.1f} Hz")
-            sup.set_text(f"crank angle {data.crank_angle[i]:.0f}°; each shape normalised to a "
-                         f"largest displacement of {data.amplitude:.0f} mm")
-            marker.set_xdata([data.crank_angle[i]] * 2)
-            dots.set_offsets(np.column_stack([np.full(n, data.crank_angle[i]), data.frequencies[i]]))
+            sup.set_text(f"crank angle {data.crank_angle_deg[i]:.0f}°; each shape normalised to a "
+                         f"largest displacement of {data.amplitude_mm:.0f} mm")
+            marker.set_xdata([data.crank_angle_deg[i]] * 2)
+            dots.set_offsets(np.column_stack([np.full(n, data.crank_angle_deg[i]), data.frequencies[i]]))
 
-        png, w, h = _render(fig, update, len(data.crank_angle), dpi)
+        png, w, h = _render(fig, update, len(data.crank_angle_deg), dpi)
     finally:
         plt.close(fig)
     return Animation(png, interval, f"The {n} lowest modes along one crank turn", w, h)

@@ -198,12 +198,12 @@ class LinkageBranch:
         base = self.period_map if isinstance(self.period_map, LinkagePeriodMap) else self.period_map.base
         return base.steady(q.x, q.p)
 
-    def peak_to_peak(self, link: str = "L2", direction: str = "transverse") -> Array:
+    def peak_to_peak_mm(self, link: str = "L2", direction: str = "transverse") -> Array:
         """Peak-to-peak midpoint deflection (mm) at every point (one period each; on a
         period-2 branch over the first of the two periods)."""
         key = (link, direction)
         if key not in self._pp:
-            self._pp[key] = np.array([self.steady(i).peak_to_peak(link, direction)
+            self._pp[key] = np.array([self.steady(i).peak_to_peak_mm(link, direction)
                                       for i in range(len(self.branch.points))])
         return self._pp[key]
 
@@ -286,7 +286,7 @@ def follow(
     """Continue the linkage's periodic steady state in ``parameter`` from ``p0`` to ``p_end``.
 
     ``br = follow(fivebar.Setup(params.replace(bending_depth=0.002), motors=False,
-    crank_speed_rpm=10), 300)``; ``br.p``, ``br.stable``, ``br.peak_to_peak("L2")``,
+    crank_speed_rpm=10), 300)``; ``br.p``, ``br.stable``, ``br.peak_to_peak_mm("L2")``,
     ``br.summary()``.
 
     Parameters

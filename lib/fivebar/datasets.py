@@ -90,10 +90,10 @@ def figure6_curves(params: Params, steps_per_period: int = FIGURE6_STEPS) -> pd.
     from .steady import steady_state
 
     res = steady_state(_params(params), steps_per_period=steps_per_period)
-    out = {"crank angle (deg)": res.crank_angle}
+    out = {"crank angle (deg)": res.crank_angle_deg}
     for link in ("L2", "L3"):
         for direction in ("transverse", "longitudinal", "chord"):
-            out[f"{link} {direction} (um)"] = 1e3 * res.midpoint(link, direction)
+            out[f"{link} {direction} (um)"] = 1e3 * res.midpoint_mm(link, direction)
     return pd.DataFrame(out)
 
 

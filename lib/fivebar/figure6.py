@@ -62,10 +62,10 @@ ASSUMPTION_VARIANTS: tuple[Variant, ...] = (
 def _row(res: SteadyState) -> dict[str, float]:
     stress = res.bending_stress()
     return {
-        "L2 transverse p-p (um)": 1e3 * res.peak_to_peak("L2"),
-        "L3 transverse p-p (um)": 1e3 * res.peak_to_peak("L3"),
-        "L2 bending p-p (um)": 1e3 * res.peak_to_peak("L2", "chord"),
-        "L3 bending p-p (um)": 1e3 * res.peak_to_peak("L3", "chord"),
+        "L2 transverse p-p (um)": 1e3 * res.peak_to_peak_mm("L2"),
+        "L3 transverse p-p (um)": 1e3 * res.peak_to_peak_mm("L3"),
+        "L2 bending p-p (um)": 1e3 * res.peak_to_peak_mm("L2", "chord"),
+        "L3 bending p-p (um)": 1e3 * res.peak_to_peak_mm("L3", "chord"),
         "peak bending stress (MPa)": max(stress.values()) / 1e6,
         "in link": max(stress, key=stress.get),
     }

@@ -295,7 +295,7 @@ class MultipleScalesResponse(_LinkageSteadyState):
     A :class:`fivebar.steady.SteadyState` (``method == "multiple scales"``, ``periods == 0``)
     whose ``u, v`` are :math:`\boldsymbol\Phi(t)\boldsymbol\eta(t)` and
     :math:`\boldsymbol\Phi\dot{\boldsymbol\eta} + \dot{\boldsymbol\Phi}\boldsymbol\eta`
-    at the S + 1 samples, so ``midpoint(link, direction)``, ``peak_to_peak`` and
+    at the S + 1 samples, so ``midpoint_mm(link, direction)``, ``peak_to_peak_mm`` and
     ``bending_stress`` work as for the numerical steady state.  Extra attributes: ``modal``
     (:class:`ModalModel`), ``slow`` (the slow-flow :class:`ModulationSteadyState`: ``a``, ``theta0``,
     ``stable``), ``flow`` (:class:`SlowFlow`), ``eta`` and ``eta_dot`` ((S + 1, k)), and
@@ -332,7 +332,7 @@ def multiple_scales(
     Call forms::
 
         ms = multiple_scales(params)                     # default speed, 2 modes
-        ms.midpoint("L2", "transverse")                  # mm over S + 1 samples, as fivebar.SteadyState
+        ms.midpoint_mm("L2", "transverse")                  # mm over S + 1 samples, as fivebar.SteadyState
         ms.slow.a, ms.slow.theta0, ms.slow.stable        # a_r, theta_r by Newton-Raphson
         ms.u[0], ms.v[0]                                 # initial state of multiple-scales-Newmark
 
@@ -542,11 +542,11 @@ def compare_starts(
             except Exception:  # noqa: BLE001 - a failed march is a result here (NaN)
                 row[f"periods from {st}"] = np.nan
         for link in links:
-            a = ref.peak_to_peak(link)
+            a = ref.peak_to_peak_mm(link)
             row[f"{link} p2p (mm)"] = a
-            row[f"{link} MS error"] = ms.peak_to_peak(link) / a - 1.0
-        y = ref.midpoint(links[0])
-        row["MS waveform error"] = float(np.abs(ms.midpoint(links[0]) - y).max() / np.abs(y).max())
+            row[f"{link} MS error"] = ms.peak_to_peak_mm(link) / a - 1.0
+        y = ref.midpoint_mm(links[0])
+        row["MS waveform error"] = float(np.abs(ms.midpoint_mm(links[0]) - y).max() / np.abs(y).max())
         row["shooting iterations"] = ref.periods
         rows.append(row)
     return pd.DataFrame(rows)

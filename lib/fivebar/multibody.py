@@ -350,7 +350,7 @@ class MultibodySteadyState:
     steps_per_period: int
 
     @property
-    def crank_angle(self) -> NDArray:
+    def crank_angle_deg(self) -> NDArray:
         """Angle of crank AB (deg) from its initial angle, at the samples."""
         return np.degrees(self.t * self.params.crank_speed)
 
@@ -370,7 +370,7 @@ class MultibodySteadyState:
         u = pos[:, i, :] - (Pa + s * d)
         return np.sum(u * e, axis=-1), np.sum(u * nrm, axis=-1)
 
-    def midpoint(self, link: str, direction: str = "transverse") -> NDArray:
+    def midpoint_mm(self, link: str, direction: str = "transverse") -> NDArray:
         """Elastic displacement of the midpoint of a link over the period (mm).
 
         Same definitions, directions and signs as :meth:`fivebar.steady.SteadyState.midpoint`.
@@ -391,9 +391,9 @@ class MultibodySteadyState:
         _, tr1 = self._displacement(link, 1.0)
         return 1e3 * (tr - 0.5 * (tr0 + tr1))
 
-    def peak_to_peak(self, link: str, direction: str = "transverse") -> float:
+    def peak_to_peak_mm(self, link: str, direction: str = "transverse") -> float:
         """Peak-to-peak value (mm) of :meth:`midpoint` over the period."""
-        y = self.midpoint(link, direction)
+        y = self.midpoint_mm(link, direction)
         return float(y.max() - y.min())
 
 
@@ -410,7 +410,7 @@ def multibody_steady_state(
 ) -> MultibodySteadyState:
     """Periodic steady state of the fully coupled multibody model (Exudyn).
 
-    ``res = multibody_steady_state(params)``; ``res.midpoint("L2", "chord")`` (mm at the
+    ``res = multibody_steady_state(params)``; ``res.midpoint_mm("L2", "chord")`` (mm at the
     ``samples + 1`` crank angles of one period from 0, as ``steady_state``).
 
     Parameters
@@ -480,7 +480,7 @@ def multibody_steady_state(
                     before = _steady(params, record[-2 * S - 1: -S], ramp_periods)
                     err = 0.0
                     for link in couplers:
-                        y, y0 = now.midpoint(link), before.midpoint(link)
+                        y, y0 = now.midpoint_mm(link), before.midpoint_mm(link)
                         err = max(err, float(np.abs(y - y0).max() / max(np.ptp(y), 1e-300)))
                     state["error"] = err
                     if err <= tol:

@@ -130,7 +130,7 @@ class SteadyState:
         return self._floquet
 
     @property
-    def crank_angle(self) -> NDArray:
+    def crank_angle_deg(self) -> NDArray:
         """Angle of crank AB (deg) from its initial angle, at the samples."""
         return np.degrees(self.t * self.dynamics.params.crank_speed)
 
@@ -206,7 +206,7 @@ class SteadyState:
             stress = self.bending_stress()
             s_link = max(stress, key=stress.get)
             lengths = {k.name: k.length for k in p.linkage.links}
-            defl = {k: float(np.abs(self.midpoint(k, "chord")).max()) * 1e-3 / L for k, L in lengths.items()}
+            defl = {k: float(np.abs(self.midpoint_mm(k, "chord")).max()) * 1e-3 / L for k, L in lengths.items()}
             d_link = max(defl, key=defl.get)
             ratio, period = drive_period(p)
             c = {"peak bending stress (MPa)": float(stress[s_link]) / 1e6, "stress link": s_link,
@@ -242,7 +242,7 @@ class SteadyState:
     def _angles(self):
         return self.dynamics.crank_angles(self.t)
 
-    def midpoint(self, link: str, direction: str = "transverse") -> NDArray:
+    def midpoint_mm(self, link: str, direction: str = "transverse") -> NDArray:
         """Elastic displacement of the midpoint of a link over the period (mm).
 
         Parameters
@@ -281,9 +281,9 @@ class SteadyState:
                                                                          *self._angles())
         return self._cache["q"]
 
-    def peak_to_peak(self, link: str, direction: str = "transverse") -> float:
+    def peak_to_peak_mm(self, link: str, direction: str = "transverse") -> float:
         """Peak-to-peak value (mm) of :meth:`midpoint` over the period."""
-        y = self.midpoint(link, direction)
+        y = self.midpoint_mm(link, direction)
         return float(y.max() - y.min())
 
     def bending_stress(self, points: int = 11) -> dict[str, float]:
@@ -697,7 +697,7 @@ def steady_state(
     """The periodic steady state of the linkage over one period of the motion.
 
     ``res = steady_state(params)`` or ``steady_state(fivebar.Setup(params, ...))``;
-    ``res.midpoint("L2", "transverse")`` (mm over the S + 1 samples from crank angle 0),
+    ``res.midpoint_mm("L2", "transverse")`` (mm over the S + 1 samples from crank angle 0),
     ``res.floquet_multipliers``, ``res.stable``, ``res.note``, ``res.bending_stress()`` (Pa).
     ``steady_state(params, tol=0.01)`` chooses S itself for 1 % on the midpoint deflections
     (fastest for a given accuracy, see ``tol``).
@@ -790,6 +790,6 @@ def _deflection_change(coarse: SteadyState, fine: SteadyState) -> float:
     ``fine`` (2 S) at the S + 1 common samples, relative to the finer peak-to-peak value."""
     out = 0.0
     for link in fine.dynamics.params.linkage.couplers:  # the links between two pins (Figure 6: L2, L3)
-        yc, yf = coarse.midpoint(link), fine.midpoint(link)
+        yc, yf = coarse.midpoint_mm(link), fine.midpoint_mm(link)
         out = max(out, float(np.abs(yc - yf[::2]).max() / max(np.ptp(yf), 1e-300)))
     return out

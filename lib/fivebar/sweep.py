@@ -192,7 +192,7 @@ def sweep_point(
     quasi = SteadyState(dyn, st.t, qs, np.zeros_like(qs), "quasi-static", 0)
     out = {"speed (r/min)": float(crank_speed_rpm), "crank frequency (Hz)": float(crank_speed_rpm) / 60.0}
     for link in links:
-        a, q = st.peak_to_peak(link, direction), quasi.peak_to_peak(link, direction)
+        a, q = st.peak_to_peak_mm(link, direction), quasi.peak_to_peak_mm(link, direction)
         out[f"{link} p2p (mm)"] = a
         out[f"{link} quasi-static p2p (mm)"] = q
         out[f"{link} amplification"] = a / q

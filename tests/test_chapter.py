@@ -1,0 +1,50 @@
+"""The chapters' parameter loading and their two kinds of checks (fivebar.chapter)."""
+
+import pytest
+
+import fivebar
+from fivebar import chapter
+
+
+def test_load_layers_the_readers_file_over_the_books(tmp_path):
+    mine = tmp_path / "mine.toml"
+    mine.write_text("[assumptions]\ncrank_speed_rpm = 120\nbending_depth = 0.002\n")
+    p = chapter.load([mine])
+    assert p.crank_speed_rpm == 120 and p.bending_depth == 0.002
+    book = chapter.load([])
+    assert book.crank_speed_rpm == fivebar.load_params().crank_speed_rpm
+    assert set(chapter.differences(p)) == {"assumptions.crank_speed_rpm", "assumptions.bending_depth"}
+    assert chapter.differences(p)["assumptions.crank_speed_rpm"] == (book.crank_speed_rpm, 120)
+    assert chapter.is_book_params(book) and not chapter.is_book_params(p)
+
+
+def test_load_of_the_fourbar_compares_with_its_own_file():
+    base = [fivebar.DEFAULT_PARAMS_PATH, fivebar.FOURBAR_PARAMS_PATH]
+    p = chapter.load([], base=base)
+    assert chapter.is_book_params(p, base)
+    assert not chapter.is_book_params(p)  # against the five-bar's file
+
+
+def test_physics_check_names_quantity_value_bound_and_meaning():
+    chapter.physics_check(True, "energy change", 0.0, "< 1e-9", "energy is conserved")
+    with pytest.raises(chapter.CheckFailed, match=r"energy change = 0.5, expected < 1e-9: energy is conserved"):
+        chapter.physics_check(0.5 < 1e-9, "energy change", 0.5, "< 1e-9", "energy is conserved")
+    assert issubclass(chapter.CheckFailed, fivebar.FivebarError)
+
+
+def test_book_value_check_checks_with_the_books_parameters_and_skips_visibly_otherwise(capsys):
+    book = fivebar.load_params()
+    assert chapter.book_value_check(book, "L1", book.L1, book.L1) is True
+    with pytest.raises(chapter.CheckFailed, match=r"book value check failed: L1 = 0.3, the book's parameters must give 0.31"):
+        chapter.book_value_check(book, "L1", 0.3, 0.31, rtol=1e-3)
+    other = book.replace(damping_ratio=0.01)
+    assert chapter.book_value_check(other, "L1", 0.3, 0.31) is False
+    out = capsys.readouterr().out
+    assert "not checked" in out and "assumptions.damping_ratio" in out and "0.31" in out
+
+
+def test_bad_arguments_are_named():
+    with pytest.raises(fivebar.errors.InputError, match="rtol = -1"):
+        chapter.book_value_check(fivebar.load_params(), "x", 1.0, 1.0, rtol=-1)
+    with pytest.raises(fivebar.errors.InputError, match="files = 3"):
+        chapter.load(3)
