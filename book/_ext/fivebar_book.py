@@ -228,7 +228,7 @@ def _errata_rows(df: Any, fmt: Any, inline: Any) -> tuple[list[str], list[list[n
     for r in df.to_dict("records"):
         where = nodes.container()
         where += _para(nodes.strong(text=fmt(r["id"])))
-        where += _para(nodes.Text(fmt(r["where"])))
+        where += _para(*inline.link(fmt(r["where"])))  # prose with its formulas in $...$
         text = nodes.container()
         for label, plain, tex in (("Printed:", "printed", "printed (math)"),
                                   ("Read as:", "read as", "read as (math)")):
