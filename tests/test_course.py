@@ -173,3 +173,47 @@ def test_a_missing_animation_fails_the_build(tmp_path, monkeypatch):
     src, out = _mini_book(tmp_path, monkeypatch, with_anim=False)
     with pytest.raises(ExtensionError, match="09_linkage.html"):
         _build(src, out)
+
+
+# --- chapter numbers, exercises by week, the project (issue 22.6) ------------------------------
+
+def _exercise_labels() -> dict[str, str]:
+    """Every exercise label of the chapters -> its notebook (read as text)."""
+    out = {}
+    for nb in sorted((ROOT / "book").glob("[0-9][0-9]_*.ipynb")):
+        for label in re.findall(r":label: (ex-[A-Za-z0-9_-]+)", nb.read_text(encoding="utf-8")):
+            out[label] = nb.stem
+    return out
+
+
+def test_every_exercise_is_in_exactly_one_week(course):
+    labels = _exercise_labels()
+    weeks: dict[str, list[str]] = {}
+    for step in course["path"]["semester"]["steps"]:
+        for label in step.get("exercises", []):
+            weeks.setdefault(label, []).append(step["label"])
+    unmapped = sorted(set(labels) - set(weeks))
+    unknown = sorted(set(weeks) - set(labels))
+    twice = {k: v for k, v in weeks.items() if len(v) > 1}
+    assert not unmapped, f"exercises in no week of the semester course: {unmapped}"
+    assert not unknown, f"weeks list exercises that no chapter has: {unknown}"
+    assert not twice, f"exercises in more than one week: {twice}"
+    # a week's exercises belong to chapters of that week
+    for step in course["path"]["semester"]["steps"]:
+        for label in step.get("exercises", []):
+            assert f"book/{labels[label]}" in step["chapters"], (step["label"], label)
+
+
+def test_chapter_numbers_follow_the_toc():
+    numbered = [f for f in toc_files() if teaching.chapter_number(f) is not None]
+    assert [teaching.chapter_number(f) for f in numbered] == list(range(1, len(numbered) + 1))
+    assert teaching.chapter_number("book/errata") is None
+
+
+def test_the_project_rubric_sums_to_100(course, tmp_path):
+    rubric = course["project"]["rubric"]
+    assert sum(r["weight"] for r in rubric) == 100 and all(r["excellent"] and r["insufficient"] for r in rubric)
+    bad = (ROOT / teaching.COURSE_FILE).read_text().replace("weight = 30", "weight = 31")
+    (tmp_path / "course.toml").write_text(bad)
+    with pytest.raises(ValueError, match="rubric weights"):
+        teaching.load_course(tmp_path / "course.toml")

@@ -204,21 +204,32 @@ def assumption_label(key: str) -> str:
 _MENTION = re.compile(r"\b(E\d{1,2})\b")
 
 
-def _linked(text: str, ids: set[str], docname: str) -> list[nodes.Node]:
-    """``text`` with every mention of an erratum id (``E26``) as a link to its row."""
+_MATH_OR_CODE = re.compile(r"\$[^$]*\$|`[^`]*`")
+
+
+def _linked(text: str, ids: set[str], docname: str, parse: Any = None) -> list[nodes.Node]:
+    """``text`` with every mention of an erratum id (``E26``) as a link to its row.
+
+    ``parse`` (a function of a string to inline nodes) parses the text between the mentions
+    as MyST, so that its formulas (``$...$``) and code are typeset; without it the text stays
+    plain.  Mentions inside a formula or code are left alone."""
+    def piece(t: str) -> list[nodes.Node]:
+        return parse(t) if (parse is not None and t) else [nodes.Text(t)]
+
+    skip = [m.span() for m in _MATH_OR_CODE.finditer(text)]
     out: list[nodes.Node] = []
     pos = 0
     for m in _MENTION.finditer(text):
-        if m.group(1) not in ids:
+        if m.group(1) not in ids or any(a <= m.start() < b for a, b in skip):
             continue
-        out.append(nodes.Text(text[pos:m.start()]))
+        out.extend(piece(text[pos:m.start()]))
         ref = addnodes.pending_xref("", refdomain="std", reftype="ref", refexplicit=True,
                                     reftarget=erratum_label(m.group(1)), refwarn=True,
                                     refdoc=docname)
         ref += nodes.inline(text=m.group(1), classes=["fivebar-erratum"])
         out.append(ref)
         pos = m.end()
-    out.append(nodes.Text(text[pos:]))
+    out.extend(piece(text[pos:]))
     return out
 
 
@@ -228,7 +239,7 @@ def _errata_rows(df: Any, fmt: Any, inline: Any) -> tuple[list[str], list[list[n
     for r in df.to_dict("records"):
         where = nodes.container()
         where += _para(nodes.strong(text=fmt(r["id"])))
-        where += _para(nodes.Text(fmt(r["where"])))
+        where += _para(*inline.link(fmt(r["where"])))  # prose with its formulas in $...$
         text = nodes.container()
         for label, plain, tex in (("Printed:", "printed", "printed (math)"),
                                   ("Read as:", "read as", "read as (math)")):
@@ -298,7 +309,9 @@ class FivebarTable(SphinxDirective):
             return [*parsed, *msgs]
 
         known = set(reporting.errata_table()["id"])
-        inline.link = lambda text: _linked(text, known, self.env.docname)  # type: ignore[attr-defined]
+        # the errata are written in MyST (formulas in $...$); the assumptions stay plain text
+        parse = inline if name == "errata" else None
+        inline.link = lambda text: _linked(text, known, self.env.docname, parse)  # type: ignore[attr-defined]
 
         header, rows, widths, ids = layout(df, reporting.format_value, inline)
         table = _table(header, rows, widths, [f"fivebar-{name}"])

@@ -83,6 +83,15 @@ def load_course(path: str | Path) -> dict[str, Any]:
             for f in step.get("chapters", []):
                 if f not in files and f != "book/index":
                     raise ValueError(f"{path}: path {name!r}, {step.get('label')}: unknown chapter {f!r}")
+    project = data.get("project")
+    if project is not None:
+        for key in ("title", "task", "deliverables", "rubric"):
+            if not project.get(key):
+                raise ValueError(f"{path}: [project] needs {key!r}")
+        weights = [r.get("weight") for r in project["rubric"]]
+        if not all(isinstance(w, int) and w > 0 for w in weights) or sum(weights) != 100:
+            raise ValueError(f"{path}: [project] rubric weights = {weights} are not allowed: give positive "
+                             "integers (per cent) that sum to 100")
     return data
 
 
@@ -121,6 +130,40 @@ def _resolve(env, course, f: str) -> str:
         if name in env.found_docs:
             return name
     return f
+
+
+_NUMBERED = re.compile(r"^book/(\d\d)_")
+
+
+def chapter_number(f: str) -> int | None:
+    """The number of a chapter file (``book/07_excitation`` -> 7), as the HTML, the PDF and the
+    student edition number it: the numbered chapters' files carry their number (_toc.yml lists
+    them in that order, no gaps; tests/test_course.py checks it).  None for the other pages."""
+    m = _NUMBERED.match(f)
+    return int(m.group(1)) if m else None
+
+
+def _titled(course, f: str) -> str | None:
+    """A chapter's title with its number ("Chapter 7: Excitation ..."), or None if not in the map."""
+    ch = chapter_entry(course, f)
+    if ch is None:
+        return None
+    n = chapter_number(f)
+    return f"Chapter {n}: {ch['title']}" if n is not None else ch["title"]
+
+
+def _exercise_refs(labels: list[str]) -> nodes.paragraph:
+    """Links to exercises by their labels (sphinx-exercise numbers them: "Exercise 3.1")."""
+    p = nodes.paragraph()
+    p += nodes.emphasis(text="Exercises: ")
+    for k, label in enumerate(labels):
+        if k:
+            p += nodes.Text(", ")
+        ref = addnodes.pending_xref("", refdomain="std", reftype="ref", reftarget=label,
+                                    refexplicit=False, refwarn=True)
+        ref += nodes.inline(text=label)
+        p += ref
+    return p
 
 
 def _hours(minutes: int) -> str:
@@ -201,7 +244,7 @@ class CourseMap(SphinxDirective):
             total = {r: [0, 0] for r in _ROLES}
             for ch in course["chapter"]:
                 name = nodes.container()
-                name += nodes.paragraph("", "", _doc_ref(env, _resolve(env, course, ch["file"]), ch["title"]))
+                name += nodes.paragraph("", "", _doc_ref(env, _resolve(env, course, ch["file"]), _titled(course, ch["file"])))
                 name += nodes.paragraph("", "", nodes.strong(text=ch["role"]))
                 name += nodes.paragraph(text=f"{_hours(ch['reading'])} reading, {_hours(ch['working'])} working")
                 obj = _bullets([nodes.paragraph("", "", *_inline(self, o)) for o in ch["objectives"]])
@@ -216,9 +259,11 @@ class CourseMap(SphinxDirective):
             note = nodes.paragraph(text="Total time: " + "; ".join(
                 f"{r} chapters {_hours(a)} reading + {_hours(b)} working" for r, (a, b) in total.items() if a or b) + ".")
             return [table, note]
+        if what == "project":
+            return self._project(course)
         paths = course.get("path") or {}
         if what not in paths:
-            raise self.error(f"course-map: {what!r} is not allowed: use 'chapters' or one of {sorted(paths)}")
+            raise self.error(f"course-map: {what!r} is not allowed: use 'chapters', 'project' or one of {sorted(paths)}")
         p = paths[what]
         rows = []
         for step in p["steps"]:
@@ -226,11 +271,33 @@ class CourseMap(SphinxDirective):
             for k, f in enumerate(step["chapters"]):
                 if k:
                     docs += nodes.Text(", ")
-                ch = chapter_entry(course, f)
-                docs += _doc_ref(env, _resolve(env, course, f), ch["title"] if ch else None)
-            rows.append([nodes.paragraph(text=step["label"]), docs, nodes.paragraph(text=step["work"])])
+                docs += _doc_ref(env, _resolve(env, course, f), _titled(course, f))
+            work = nodes.container()
+            work += nodes.paragraph(text=step["work"])
+            if step.get("exercises"):
+                work += _exercise_refs(step["exercises"])
+            rows.append([nodes.paragraph(text=step["label"]), docs, work])
         out = [nodes.paragraph("", "", nodes.strong(text=p["title"] + ". "), nodes.Text(p.get("audience", "")))]
         out.append(_table(["When", "Chapters", "What to do"], rows, [16, 34, 50], ["fivebar-course-path"]))
+        return out
+
+    def _project(self, course: dict[str, Any]) -> list[nodes.Node]:
+        """The course project of ``[project]``: the task, what to hand in and the rubric."""
+        pr = course.get("project")
+        if not pr:
+            raise self.error(f"course-map project: {COURSE_FILE} has no [project] section")
+        out = [nodes.paragraph("", "", nodes.strong(text=pr["title"] + ". "), *_inline(self, pr["task"]))]
+        out.append(nodes.paragraph("", "", nodes.strong(text="Hand in: "), *_inline(self, pr["deliverables"])))
+        rows = []
+        for r in pr["rubric"]:
+            crit = nodes.container()
+            crit += nodes.paragraph("", "", nodes.strong(text=r["criterion"]))
+            crit += nodes.paragraph(text=f"{r['weight']} % of the mark")
+            levels = nodes.container()
+            for name in ("excellent", "adequate", "insufficient"):
+                levels += nodes.paragraph("", "", nodes.emphasis(text=name.capitalize() + ": "), *_inline(self, r[name]))
+            rows.append([crit, levels])
+        out.append(_table(["Criterion and weight", "What earns it"], rows, [26, 74], ["fivebar-course-path"]))
         return out
 
 
