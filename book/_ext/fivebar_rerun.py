@@ -14,15 +14,18 @@ or the names ``09_figure6``):
 1. executes a copy of the notebook with papermill: papermill finds the chapter's cell tagged
    ``parameters`` and injects after it a cell ``PARAMS_FILES = ["/abs/path/mine.toml", ...]``
    (the files are made absolute, so that they are found from the kernel's working directory,
-   ``book/``, as in the book's own build).  The chapter is not edited.
+   ``book/``, as in the book's own build: a copy of the repository made of symbolic links,
+   ``_build/rerun/<name>/_cwd/book``, whose ``_generated/`` (animation pages, CSV files the
+   chapters write) is the rerun's own, so that the book's are not replaced).  The chapter is
+   not edited.
 2. writes the executed notebook to ``_build/rerun/<name>/NN_x.ipynb`` (``<name>``: the
    files' stems joined by ``+``, or ``--name``), outputs and errors included.
 3. renders the executed notebooks to HTML, ``_build/rerun/<name>/html/index.html``: a Jupyter
    Book build with execution off of a temporary book (``_build/rerun/<name>/_src``) made of
    the rerun chapters, the book's ``_config.yml`` and extensions (so generated MyST sentences,
    ``{numref}`` and ``{erratum}`` roles and the book's directives render as in the book), a
-   front page that lists the parameter files and their entries, the references page, and for
-   each numbered chapter *not* rerun a one-line placeholder page with its title, so that
+   front page that lists the parameter files and their entries, the errata and references
+   pages (targets of the ``{erratum}``, ``{assumption}`` and ``{cite}`` roles), and for each numbered chapter *not* rerun a one-line placeholder page with its title, so that
    chapter, figure and equation numbers are the book's.  Warnings are not errors here (no
    ``-W``): a reference from a rerun chapter into a chapter that was not rerun has no target
    and is reported as a warning, rendered as plain text.
@@ -109,8 +112,25 @@ def _first_line(source: str) -> str:
     return ""
 
 
-def run_chapter(nb_path: Path, params_files: list[str], outdir: Path) -> Outcome:
-    """Execute one chapter with papermill; the executed notebook goes to ``outdir``."""
+def shadow_tree(outdir: Path) -> Path:
+    """``outdir/_cwd``: the repository seen through symbolic links, except ``book/_generated``
+    (a directory of its own), so that what a chapter writes there (its animation pages, CSV
+    files) stays with the rerun and never replaces the book's.  Returns its ``book/``."""
+    cwd = outdir / "_cwd"
+    shutil.rmtree(cwd, ignore_errors=True)
+    (cwd / "book" / "_generated").mkdir(parents=True)
+    for entry in ROOT.iterdir():
+        if entry.name not in ("book", "_build", ".git"):
+            os.symlink(entry, cwd / entry.name)
+    for entry in BOOK.iterdir():
+        if entry.name != "_generated":
+            os.symlink(entry, cwd / "book" / entry.name)
+    return cwd / "book"
+
+
+def run_chapter(nb_path: Path, params_files: list[str], outdir: Path, cwd: Path = BOOK) -> Outcome:
+    """Execute one chapter with papermill, the kernel in ``cwd`` (the book's directory or its
+    :func:`shadow_tree`); the executed notebook goes to ``outdir``."""
     import papermill as pm
     from papermill.exceptions import PapermillExecutionError
 
@@ -118,7 +138,7 @@ def run_chapter(nb_path: Path, params_files: list[str], outdir: Path) -> Outcome
     t0 = time.perf_counter()
     try:
         pm.execute_notebook(str(nb_path), str(output), parameters={"PARAMS_FILES": params_files},
-                            cwd=str(BOOK), progress_bar=False, log_output=False,
+                            cwd=str(cwd), progress_bar=False, log_output=False,
                             report_mode=False, request_save_on_cell_execute=False)
     except PapermillExecutionError as exc:
         # papermill puts an error banner first: find the cell by its execution count
@@ -158,7 +178,7 @@ def _front_page(name: str, params_files: list[str], rerun: list[Path], failed: s
     lines += ["## Chapters rerun", ""]
     for p in rerun:
         state = " (**stopped by an error**: see the page's last executed cell)" if p.stem in failed else ""
-        lines.append(f"- {{doc}}`book/{p.stem}`{state}")
+        lines.append(f"- {{doc}}`/book/{p.stem}`{state}")
     return "\n".join(lines) + "\n"
 
 
@@ -171,7 +191,8 @@ def build_html(name: str, outdir: Path, params_files: list[str], rerun: list[Pat
     shutil.rmtree(src, ignore_errors=True)
     (src / "book").mkdir(parents=True)
     os.symlink(BOOK / "_ext", src / "book" / "_ext")
-    for f in ("references.bib", "references.md"):
+    os.symlink(outdir / "_cwd" / "book" / "_generated", src / "book" / "_generated")
+    for f in ("references.bib", "references.md", "errata.md"):
         shutil.copy(BOOK / f, src / "book" / f)
     (src / "book" / "index.md").write_text(_front_page(name, params_files, rerun, failed))
     names = {p.stem for p in rerun}
@@ -189,7 +210,8 @@ def build_html(name: str, outdir: Path, params_files: list[str], rerun: list[Pat
                 (src / "book" / f"{stem}.md").write_text(
                     f"# {title}\n\nNot rerun: this chapter is the book's, with the book's parameters.\n")
         parts.append(part)
-    parts.append({"caption": "Reference", "chapters": [{"file": "book/references"}]})
+    parts.append({"caption": "Reference",
+                  "chapters": [{"file": "book/errata"}, {"file": "book/references"}]})
     toc = {"format": "jb-book", "root": "book/index", "parts": parts}
     (src / "_toc.yml").write_text(yaml.safe_dump(toc, sort_keys=False))
     config = yaml.safe_load((ROOT / "_config.yml").read_text())
@@ -198,7 +220,8 @@ def build_html(name: str, outdir: Path, params_files: list[str], rerun: list[Pat
     (src / "_config.yml").write_text(yaml.safe_dump(config, sort_keys=False))
     return build_sphinx(src, outdir / "html", use_external_toc=True, noconfig=True,
                         path_config=str(src / "_config.yml"),
-                        confoverrides={"external_toc_path": str(src / "_toc.yml")},
+                        confoverrides={"external_toc_path": str(src / "_toc.yml"),
+                                       "latex_individualpages": False},
                         doctreedir=outdir / ".doctrees", builder="html",
                         warningiserror=False, keep_going=True)
 
@@ -237,6 +260,7 @@ def main(argv: list[str] | None = None) -> int:
     for old in outdir.glob("[0-9][0-9]_*.ipynb"):
         old.unlink()
     outdir.mkdir(parents=True, exist_ok=True)
+    cwd = shadow_tree(outdir)
 
     t0 = time.perf_counter()
     print(f"rerunning {len(selected)} chapter(s) with {', '.join(files)} on {args.jobs} process(es) "
@@ -244,12 +268,12 @@ def main(argv: list[str] | None = None) -> int:
     outcomes = []
     if args.jobs == 1 or len(selected) == 1:
         for p in selected:
-            outcomes.append(run_chapter(p, files, outdir))
+            outcomes.append(run_chapter(p, files, outdir, cwd))
             print(f"  {outcomes[-1].chapter}: {'FAILED' if outcomes[-1].error else 'ok'} "
                   f"({outcomes[-1].seconds:.0f} s)", flush=True)
     else:
         with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-            futures = [pool.submit(run_chapter, p, files, outdir) for p in selected]
+            futures = [pool.submit(run_chapter, p, files, outdir, cwd) for p in selected]
             for fut in futures:
                 outcomes.append(fut.result())
                 print(f"  {outcomes[-1].chapter}: {'FAILED' if outcomes[-1].error else 'ok'} "
@@ -261,9 +285,13 @@ def main(argv: list[str] | None = None) -> int:
     html_status = 0
     if not args.no_html:
         t1 = time.perf_counter()
-        html_status = build_html(name, outdir, files, selected, {o.chapter for o in failed})
+        try:
+            html_status = build_html(name, outdir, files, selected, {o.chapter for o in failed})
+        except Exception as exc:  # a book extension that stops the build
+            print(f"fivebar_rerun: the HTML build failed: {type(exc).__name__}: {exc}", file=sys.stderr)
+            html_status = 1
         print(f"HTML in {time.perf_counter() - t1:.0f} s: {outdir / 'html' / 'index.html'}"
-              + ("" if html_status == 0 else f" (the build failed, exit {html_status})"), flush=True)
+              + ("" if html_status == 0 else f" (the build failed: {html_status})"), flush=True)
     for o in failed:
         print(f"fivebar_rerun: {o.error}", file=sys.stderr)
     if failed:
