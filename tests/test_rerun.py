@@ -73,9 +73,16 @@ def test_rerun_fails_on_a_physics_check_and_names_it(tmp_path, capsys):
     assert "planted quantity" in err
 
 
-def test_rerun_refuses_bad_arguments(tmp_path):
+def test_rerun_refuses_bad_arguments(tmp_path, capsys):
     assert rerun.main([str(tmp_path / "absent.toml"), "--no-html"]) == 2
+    assert "absent.toml' does not exist" in capsys.readouterr().err
     params = tmp_path / "p.toml"
     params.write_text("")
-    with pytest.raises(SystemExit, match="not a chapter of the book"):
-        rerun.main([str(params), "--chapters", "99", "--no-html"])
+    assert rerun.main([str(params), "--chapters", "99", "--no-html"]) == 2
+    assert "chapter '99' is not a chapter of the book" in capsys.readouterr().err
+    nb = json.loads((ROOT / "book" / "01_mechanism.ipynb").read_text())  # no parameters cell
+    for c in nb["cells"]:
+        c["metadata"].pop("tags", None)
+    (tmp_path / "01_mechanism.ipynb").write_text(json.dumps(nb))
+    assert rerun.main([str(params), "--chapters", str(tmp_path / "01_mechanism.ipynb"), "--no-html"]) == 2
+    assert "no cell tagged 'parameters' in 01_mechanism" in capsys.readouterr().err

@@ -77,7 +77,7 @@ def select(names: list[str] | None) -> list[Path]:
         stem = Path(name).stem
         hits = [p for p in every if p.stem == stem or p.stem.split("_", 1)[0] == stem]
         if len(hits) != 1:
-            raise SystemExit(f"fivebar_rerun: chapter {name!r} is not a chapter of the book "
+            raise LookupError(f"fivebar_rerun: chapter {name!r} is not a chapter of the book "
                              f"(allowed: {', '.join(p.stem for p in every)}, or their numbers)")
         if hits[0] not in out:
             out.append(hits[0])
@@ -249,7 +249,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.jobs < 1:
         print(f"fivebar_rerun: --jobs {args.jobs} is not allowed: give 1 or more", file=sys.stderr)
         return 2
-    selected = select(args.chapters)
+    try:
+        selected = select(args.chapters)
+    except LookupError as exc:
+        print(exc, file=sys.stderr)
+        return 2
     missing = [p.stem for p in selected if not has_parameters_cell(p)]
     if missing:
         print(f"fivebar_rerun: no cell tagged 'parameters' in {', '.join(missing)}: "
