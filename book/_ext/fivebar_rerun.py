@@ -187,6 +187,7 @@ def build_html(name: str, outdir: Path, params_files: list[str], rerun: list[Pat
     """Render the executed notebooks in ``outdir`` as a Jupyter Book (execution off, no -W)."""
     from jupyter_book.sphinx import build_sphinx
 
+    outdir = outdir.resolve()
     src = outdir / "_src"
     shutil.rmtree(src, ignore_errors=True)
     (src / "book").mkdir(parents=True)
