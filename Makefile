@@ -9,7 +9,8 @@ STAMP  := $(VENV)/.installed
 # that nbval sees the same figure outputs as were stored (tests/conftest.py selects Agg).
 export PYDEVD_DISABLE_FILE_VALIDATION := 1
 
-.PHONY: venv test test-unit test-notebooks book book-clean book-student pdf pdf-if-tex execute clean
+.PHONY: venv test test-unit test-notebooks book book-clean book-student pdf pdf-if-tex execute clean \
+	rerun rerun-examples
 
 venv: $(STAMP)
 
@@ -83,6 +84,27 @@ execute: venv
 	echo "executing $$nb"; \
 	$(BIN)/jupyter execute --inplace --timeout=600 "$$nb" || exit 1; \
 	done
+
+## make rerun PARAMS=mine.toml [CHAPTERS="09 12"] [RERUN_JOBS=2] [HTML=0]: rerun chapters (default:
+## all) with your TOML files layered over the book's (papermill injects PARAMS_FILES after each
+## chapter's parameters cell; the chapters are not edited): executed notebooks and their HTML
+## pages in _build/rerun/<name>/ (book/run.md, "Change a parameter and rerun").  Fails, naming
+## chapter and cell, on any cell error or failed physics check.
+PARAMS ?=
+CHAPTERS ?=
+RERUN_JOBS ?= 2
+HTML ?= 1
+rerun: venv
+	@test -n "$(PARAMS)" || { echo 'make rerun: give your files, e.g. make rerun PARAMS=mine.toml'; exit 2; }
+	$(BIN)/python book/_ext/fivebar_rerun.py $(PARAMS) --jobs $(RERUN_JOBS) \
+	$(if $(strip $(CHAPTERS)),--chapters $(CHAPTERS)) $(if $(filter 0,$(HTML)),--no-html)
+
+## make rerun-examples: every chapter rerun with each file of examples/params/ (CI, after make
+## test): fails on any cell error or failed physics check.  Notebooks only (no HTML pages).
+rerun-examples: venv
+	status=0; for f in examples/params/*.toml; do \
+	$(BIN)/python book/_ext/fivebar_rerun.py "$$f" --jobs $(RERUN_JOBS) --no-html || status=1; \
+	done; exit $$status
 
 clean:
 	rm -rf _build .pytest_cache book/_generated

@@ -198,7 +198,7 @@ def test_campbell_data_is_numbers_and_its_crossings_solve_k_omega_equals_frequen
     assert np.all(cd.low <= cd.mean) and np.all(cd.mean <= cd.high)
     for k in (1, 2, 3):
         for eff in (False, True):
-            x, y = cd.crossings(k, effective=eff)
+            x, y = cd.crossings_rpm(k, effective=eff)
             assert np.allclose(k * x / 60, y, rtol=1e-12)  # on the line k Omega
             f = cd.effective(x) if eff else np.broadcast_to(cd.mean, (len(x), 2))
             assert np.all(np.isclose(f, y[:, None], rtol=1e-10).any(axis=1))  # and on a mode's curve

@@ -132,7 +132,7 @@ class ModeFrames:
     ``crank_angle_deg`` (frames); ``frequencies`` (Hz, frames x n); ``rigid_mm``: link ->
     (frames, points, 2) mm; ``shapes_mm``: list over modes of link -> (frames, points, 2) mm,
     the deformed linkage with the mode normalised to a largest displacement of
-    ``amplitude_mm`` mm; ``curve_angle_deg`` and ``curve`` the frequencies on a fine grid (deg, Hz).
+    ``amplitude_mm`` mm; ``curve_angle_deg`` (deg) and ``curve`` (Hz): the frequencies on a fine grid.
     """
 
     crank_angle_deg: NDArray
@@ -191,13 +191,13 @@ def mode_frames(params: Params, n: int = 3, frames: int = 36, points: int = _POI
 class Animation:
     """PNG frames and how to play them.
 
-    ``frames`` (PNG bytes), ``interval`` (ms between frames), ``title`` (text of the page),
+    ``frames`` (PNG bytes), ``interval_ms`` (ms between frames), ``title`` (text of the page),
     ``width``, ``height`` (px of a frame).  :meth:`to_html` gives a self-contained page,
     :meth:`save` writes it, :attr:`nbytes` is its size.
     """
 
     frames: tuple[bytes, ...]
-    interval: int
+    interval_ms: int
     title: str
     width: int
     height: int
@@ -206,7 +206,7 @@ class Animation:
         """A self-contained HTML page: the frames as data URIs and a small player."""
         imgs = ",\n".join('"data:image/png;base64,' + base64.b64encode(b).decode("ascii") + '"' for b in self.frames)
         return _PAGE.format(title=html.escape(self.title), frames=imgs, n=len(self.frames) - 1,
-                            interval=int(self.interval), width=self.width, height=self.height)
+                            interval=int(self.interval_ms), width=self.width, height=self.height)
 
     @property
     def nbytes(self) -> int:
@@ -284,12 +284,13 @@ def _limits(ax, arrays, pad: float = 0.06) -> None:
 
 
 def animate_linkage(steady, scale: float | None = None, frames: int = 48, dpi: int = 72,
-                    interval: int = 80) -> Animation:
+                    interval_ms: int = 80) -> Animation:
     """The linkage over one crank turn, its elastic deflection magnified ``scale`` times.
 
     ``anim = animate_linkage(fivebar.steady_state(params))``; ``show(anim, "anim/x.html")``
     in a notebook.  The magnification is in the title; the rigid linkage is drawn in grey
-    beneath.  See :func:`linkage_frames` for ``scale`` and ``frames``.
+    beneath.  See :func:`linkage_frames` for ``scale`` and ``frames``; ``interval_ms`` is the
+    time between frames (ms).
     """
     import matplotlib.pyplot as plt
 
@@ -320,15 +321,16 @@ def animate_linkage(steady, scale: float | None = None, frames: int = 48, dpi: i
         png, w, h = _render(fig, update, len(data.crank_angle_deg), dpi)
     finally:
         plt.close(fig)
-    return Animation(png, interval, f"Linkage over one crank turn, elastic deflection x {data.scale:g}", w, h)
+    return Animation(png, interval_ms, f"Linkage over one crank turn, elastic deflection x {data.scale:g}", w, h)
 
 
-def animate_modes(params: Params, n: int = 3, frames: int = 36, dpi: int = 64, interval: int = 120,
+def animate_modes(params: Params, n: int = 3, frames: int = 36, dpi: int = 64, interval_ms: int = 120,
                   motors: bool = True) -> Animation:
     """The ``n`` lowest mode shapes and their frequencies along one crank turn.
 
     One panel per mode (the linkage deformed by the mode, normalised, over the rigid linkage
-    in grey) and, below, the frequencies along the cycle with the current angle marked.
+    in grey) and, below, the frequencies along the cycle with the current angle marked;
+    ``interval_ms`` is the time between frames (ms).
     """
     import matplotlib.pyplot as plt
 
@@ -376,7 +378,7 @@ def animate_modes(params: Params, n: int = 3, frames: int = 36, dpi: int = 64, i
         png, w, h = _render(fig, update, len(data.crank_angle_deg), dpi)
     finally:
         plt.close(fig)
-    return Animation(png, interval, f"The {n} lowest modes along one crank turn", w, h)
+    return Animation(png, interval_ms, f"The {n} lowest modes along one crank turn", w, h)
 
 
 def show(anim: Animation, path: str | Path, width: int | None = None):

@@ -387,7 +387,7 @@ class BruteForceDiagram:
         Parameter values in the order marched (up, then down).
     direction : ndarray (m,) of str
         "up" or "down".
-    samples : ndarray (m, k)
+    samples_mm : ndarray (m, k)
         Transverse deflection of the midpoint of ``link`` (mm) at crank angle 0 over the last
         ``k`` periods of each march (one sample per period).
     states : ndarray (m, 2 n)
@@ -401,7 +401,7 @@ class BruteForceDiagram:
 
     p: Array
     direction: NDArray
-    samples: Array
+    samples_mm: Array
     states: Array
     change: Array
     diverged: NDArray[np.bool_]
@@ -411,7 +411,7 @@ class BruteForceDiagram:
         """Smallest period (1, 2, 3, 4) that the samples repeat with to ``rtol`` of their
         spread or size, else 0 (none found: quasi-periodic, chaotic or not yet settled)."""
         out = np.zeros(len(self.p), dtype=int)
-        for i, y in enumerate(self.samples):
+        for i, y in enumerate(self.samples_mm):
             if self.diverged[i]:
                 continue
             ref = max(float(np.abs(y).max()), 1e-300)

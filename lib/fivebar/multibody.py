@@ -40,7 +40,7 @@ deflection) are all present.
   (higher modes are damped more, :math:`\zeta\omega_k/\omega_1`).
 * Gravity ``params.gravity`` along -y when it is not zero.
 
-Midpoint deflections are measured as in :meth:`fivebar.steady.SteadyState.midpoint`: the
+Midpoint deflections are measured as in :meth:`fivebar.steady.SteadyState.midpoint_mm`: the
 displacement of the link's midpoint from its rigid-body position (the kinematics at the same
 crank angles), projected on the rigid link's normal ("transverse") or axis ("longitudinal");
 "chord" subtracts the mean transverse displacement of the two ends.
@@ -373,7 +373,7 @@ class MultibodySteadyState:
     def midpoint_mm(self, link: str, direction: str = "transverse") -> NDArray:
         """Elastic displacement of the midpoint of a link over the period (mm).
 
-        Same definitions, directions and signs as :meth:`fivebar.steady.SteadyState.midpoint`.
+        Same definitions, directions and signs as :meth:`fivebar.steady.SteadyState.midpoint_mm`.
         """
         names = self.params.linkage.link_names
         if link not in names:
@@ -392,7 +392,7 @@ class MultibodySteadyState:
         return 1e3 * (tr - 0.5 * (tr0 + tr1))
 
     def peak_to_peak_mm(self, link: str, direction: str = "transverse") -> float:
-        """Peak-to-peak value (mm) of :meth:`midpoint` over the period."""
+        """Peak-to-peak value (mm) of :meth:`midpoint_mm` over the period."""
         y = self.midpoint_mm(link, direction)
         return float(y.max() - y.min())
 

@@ -415,9 +415,9 @@ def campbell_plot(data, ax=None, *, mark: bool = True, effective: bool = True, l
             ax.annotate(f"${k}\\Omega$", (xe, k * xe / 60), fontsize=MIN_FONT_PT, color="0.3", xytext=(2, 0),
                         textcoords="offset points")
         if mark:
-            ax.plot(*data.crossings(k), "o", mfc="none", mec="k", ms=6)
+            ax.plot(*data.crossings_rpm(k), "o", mfc="none", mec="k", ms=6)
             if effective:
-                ax.plot(*data.crossings(k, effective=True), "o", color="k", ms=4)
+                ax.plot(*data.crossings_rpm(k, effective=True), "o", color="k", ms=4)
     ax.set_xlim(x.min(), x.max())
     ax.set_ylim(0, hi.max() * 1.15)
     ax.set_xlabel(LABELS["crank_speed"])

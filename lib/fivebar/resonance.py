@@ -429,7 +429,7 @@ class CampbellData:
         w2 = (2 * np.pi * self.mean) ** 2 + self.spin_softening * W**2
         return np.where(w2 > 0, np.sqrt(np.abs(w2)), np.nan) / (2 * np.pi)
 
-    def crossings(self, k: int, effective: bool = False) -> tuple[NDArray, NDArray]:
+    def crossings_rpm(self, k: int, effective: bool = False) -> tuple[NDArray, NDArray]:
         """Speeds (r/min) and frequencies (Hz) where k Omega meets each mean (or effective)
         frequency, within the speed range: the primary and superharmonic resonances."""
         x = self.speeds_rpm

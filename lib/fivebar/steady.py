@@ -282,7 +282,7 @@ class SteadyState:
         return self._cache["q"]
 
     def peak_to_peak_mm(self, link: str, direction: str = "transverse") -> float:
-        """Peak-to-peak value (mm) of :meth:`midpoint` over the period."""
+        """Peak-to-peak value (mm) of :meth:`midpoint_mm` over the period."""
         y = self.midpoint_mm(link, direction)
         return float(y.max() - y.min())
 

@@ -245,7 +245,7 @@ def speed_sweep(
         Links whose midpoint is recorded; ``None``: the description's couplers (the links
         between two pins: L2 and L3 of the five-bar, as Figure 6).
     direction : str
-        As :meth:`fivebar.steady.SteadyState.midpoint` ("transverse", "longitudinal", "chord").
+        As :meth:`fivebar.steady.SteadyState.midpoint_mm` ("transverse", "longitudinal", "chord").
     steps_per_period : int, optional
         S of (4.1); default the set-up's (the parameter file's).
     scheme : Scheme, optional

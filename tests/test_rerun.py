@@ -1,0 +1,88 @@
+"""The rerun command (book/_ext/fivebar_rerun.py, `make rerun`): a chapter executed with a
+reader's parameter file gets the file injected after its parameters cell and computes with it;
+a cell error or a failed physics check makes the command fail and names chapter and cell.
+
+The chapters are tested on a copy of chapter 01 with a parameters cell added (the copy lives in
+a temporary directory; the book's notebooks are not touched).  Each run starts a kernel: tens
+of seconds.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("papermill")
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "book" / "_ext"))
+import fivebar_rerun as rerun  # noqa: E402
+
+
+def _code(source: str, tags: list[str] | None = None) -> dict:
+    return {"cell_type": "code", "execution_count": None, "id": f"c{abs(hash(source)) % 10**8}",
+            "metadata": {"tags": tags or []}, "outputs": [], "source": source}
+
+
+def _chapter_copy(tmp_path: Path, extra: str = "") -> Path:
+    """Chapter 01 with a parameters cell (PARAMS_FILES = []) and its parameters from
+    fivebar.chapter.load; ``extra`` is appended as a last code cell."""
+    nb = json.loads((ROOT / "book" / "01_mechanism.ipynb").read_text())
+    first = next(i for i, c in enumerate(nb["cells"]) if c["cell_type"] == "code")
+    src = "".join(nb["cells"][first]["source"])
+    assert "params = fivebar.load_params()" in src
+    nb["cells"][first]["source"] = src.replace("params = fivebar.load_params()",
+                                               "params = fivebar.chapter.load(PARAMS_FILES)")
+    nb["cells"].insert(first, _code("PARAMS_FILES = []", ["parameters"]))
+    nb["cells"].append(_code("print('damping ratio used:', params.damping_ratio)\n" + extra))
+    path = tmp_path / "01_mechanism.ipynb"
+    path.write_text(json.dumps(nb))
+    return path
+
+
+def _outputs_text(nb_path: Path) -> str:
+    nb = json.loads(nb_path.read_text())
+    return "".join(o.get("text", "") if isinstance(o.get("text", ""), str) else "".join(o["text"])
+                   for c in nb["cells"] if c["cell_type"] == "code" for o in c["outputs"])
+
+
+def test_rerun_injects_the_reader_file(tmp_path):
+    params = tmp_path / "damping.toml"
+    params.write_text("[assumptions]\ndamping_ratio = 0.0123\n")
+    nb = _chapter_copy(tmp_path)
+    status = rerun.main([str(params), "--chapters", str(nb), "--no-html", "--out", str(tmp_path / "out")])
+    assert status == 0
+    out = tmp_path / "out" / "damping" / "01_mechanism.ipynb"
+    executed = json.loads(out.read_text())
+    injected = [c for c in executed["cells"] if "injected-parameters" in c["metadata"].get("tags", [])]
+    assert len(injected) == 1 and str(params.resolve()) in "".join(injected[0]["source"])
+    assert "damping ratio used: 0.0123" in _outputs_text(out)  # not the book's
+
+
+def test_rerun_fails_on_a_physics_check_and_names_it(tmp_path, capsys):
+    params = tmp_path / "damping.toml"
+    params.write_text("[assumptions]\ndamping_ratio = 0.0123\n")
+    nb = _chapter_copy(tmp_path, "fivebar.chapter.physics_check(False, 'planted quantity', 1.0, '< 0', 'planted')")
+    status = rerun.main([str(params), "--chapters", str(nb), "--no-html", "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert status == 1
+    assert "01_mechanism: failed physics check in cell" in err
+    assert "planted quantity" in err
+
+
+def test_rerun_refuses_bad_arguments(tmp_path, capsys):
+    assert rerun.main([str(tmp_path / "absent.toml"), "--no-html"]) == 2
+    assert "absent.toml' does not exist" in capsys.readouterr().err
+    params = tmp_path / "p.toml"
+    params.write_text("")
+    assert rerun.main([str(params), "--chapters", "99", "--no-html"]) == 2
+    assert "chapter '99' is not a chapter of the book" in capsys.readouterr().err
+    nb = json.loads((ROOT / "book" / "01_mechanism.ipynb").read_text())  # no parameters cell
+    for c in nb["cells"]:
+        c["metadata"].pop("tags", None)
+    (tmp_path / "01_mechanism.ipynb").write_text(json.dumps(nb))
+    assert rerun.main([str(params), "--chapters", str(tmp_path / "01_mechanism.ipynb"), "--no-html"]) == 2
+    assert "no cell tagged 'parameters' in 01_mechanism" in capsys.readouterr().err
