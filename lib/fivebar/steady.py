@@ -447,6 +447,7 @@ def shooting(
     tol: float = 1e-10,
     max_iter: int = 20,
     scheme: Scheme | None = None,
+    _monodromy: NDArray | None = None,
 ) -> SteadyState:
     r"""Damped Newton's method on the periodicity condition, with the Newmark monodromy matrix.
 
@@ -463,6 +464,12 @@ def shooting(
     the nonlinearity a fresh :math:`\boldsymbol\Phi` is taken when the residual falls by
     less than a factor 10 in a step, or when a step with the old one fails.  The Floquet
     multipliers of a nonlinear orbit are computed when first asked for.
+
+    ``_monodromy`` (private, up to :data:`_DENSE_MAX_DOFS` DOFs): a monodromy matrix (2 n, 2 n)
+    of a nearby problem (the same model at a neighbouring S or speed) to start the chord
+    iteration with; it is replaced by the orbit's own when a step with it falls short, as a
+    stale one is.  The last monodromy matrix factorised is kept with the result (for the next
+    problem of a sequence).
     """
     tol = number("tol", tol, low=0.0, low_open=True)
     max_iter = number("max_iter", max_iter, integer=True, low=1, high=MAX_SHOOTING_ITER)
@@ -498,9 +505,12 @@ def shooting(
         return res, W, g, a, a / max(scale, 1e-300)
 
     x = np.concatenate([np.asarray(u0, float), np.asarray(v0, float)])
+    given = _monodromy is not None and V is full and np.shape(_monodromy) == (2 * n, 2 * n)
     try:
         try:
-            res, W, g, a, r = evaluate(x, True)
+            res, W, g, a, r = evaluate(x, not given)
+            if given:
+                W = np.asarray(_monodromy, float) / D[None, :]  # Phi V, V = diag(1 / D)
         except NewtonConvergenceError:
             # a non-dissipative scheme can blow up within one period from the quasi-static
             # start (errata E26): start instead from the orbit of the dissipative default
@@ -516,7 +526,9 @@ def shooting(
             exc.t, exc.residual, exc.iterations) from exc
     periods = 1
     solve = _newton_step(W, V, D)
-    current = True  # the factorised Jacobian is that of the present x (at every x, if linear)
+    # the factorised Jacobian is that of the present x (at every x, if linear)
+    current = not given
+    own = not given  # W is this problem's own monodromy matrix (not the one given)
     refresh = False  # evaluate the next trial with its monodromy matrix
     for it in range(1, max_iter + 2):
         if r <= tol:
@@ -524,8 +536,11 @@ def shooting(
                 floquet = _Constant(W * D[None, :])  # W = Phi diag(1 / D)
             else:
                 floquet = _OrbitMonodromy(dyn, scheme, x)
-            return SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, floquet, residual=r, scheme=scheme,
-                               setup=setup)
+            out = SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, floquet, residual=r, scheme=scheme,
+                              setup=setup)
+            if V is full and own:
+                out._cache["monodromy"] = W * D[None, :]
+            return out
         if it > max_iter:
             break
         y = solve(g)
@@ -541,7 +556,7 @@ def shooting(
             if not current:  # the Jacobian is stale: take it at x and try the full step again
                 _, W, _, _, _ = evaluate(x, True)
                 periods += 1
-                solve, current = _newton_step(W, V, D), True
+                solve, current, own = _newton_step(W, V, D), True, True
                 y, lam = solve(g), 1.0
                 continue
             lam *= 0.5
@@ -554,7 +569,7 @@ def shooting(
         slow = trial[3] > 0.1 * a
         res, W_new, g, a, r = trial
         if W_new is not None:
-            W, solve, current = W_new, _newton_step(W_new, V, D), True
+            W, solve, current, own = W_new, _newton_step(W_new, V, D), True, True
         else:
             current = linear
         if slow and current and V is not full:
@@ -747,18 +762,69 @@ def steady_state(
     return res
 
 
+#: the last orbits of ``steady_state(..., tol=...)`` per problem but its speed (the set-up at
+#: 1 r/min, method, tol): the speed, the S compared and, at each, the state at t = 0 and the
+#: monodromy matrix; the predictor of the next speed (kept for the few most recent problems)
+_ORBITS: dict = {}
+#: a remembered orbit predicts the next only within this relative change of the speed
+_PREDICT_RANGE = 0.25
+
+
 def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
-    """Steady states at S = 50, 100, 200, ... until two successive ones agree to ``tol``."""
+    """Steady states at S = 50, 100, 200, ... until two successive ones agree to ``tol``.
+
+    Each S starts from the orbit of the coarser S.  After a first speed, a new speed of the
+    same problem (within :data:`_PREDICT_RANGE` of it) starts every S from the orbit remembered
+    at that S, scaled as the quasi-static response scales with the speed (u as its square, v
+    as its cube; at the finer S the coarser S's new orbit plus the remembered difference of
+    the two), and takes the remembered monodromy matrix of that S as the chord iteration's
+    Jacobian: one to three periods without a monodromy matrix per S (where the multipliers
+    turn quickly with the speed, as near 600 r/min, a neighbouring speed's matrix falls short;
+    from then on that S takes its own, one period with it).  The S tried and chosen
+    are those of a first call (50, 100, ...), and the orbits differ from a first call's only
+    within the inner tolerance of the orbit (relative periodicity residual 1e-3 ``tol``, at
+    most 1e-6).
+    """
     inner = min(1e-6, 1e-3 * tol)  # the orbit to well below tol: residual of shooting, change of march
-    S = max(_TOL_FIRST_STEPS, min_steps_per_period(s.params))
+    S_min = max(_TOL_FIRST_STEPS, min_steps_per_period(s.params))
+    S = S_min
+    key = None
+    memo = None
+    if method == "shooting":
+        key = (s.replace(crank_speed_rpm=1.0), tol)
+        try:
+            memo = _ORBITS.get(key)
+        except TypeError:  # an unhashable parameter set: no memory
+            key = None
+    if memo is not None and abs(s.crank_speed_rpm / memo["rpm"] - 1.0) > _PREDICT_RANGE:
+        memo = None
+    solved: list[SteadyState] = []
+    stale: set[int] = set() if memo is None else set(memo["stale"])
     prev: SteadyState | None = None
     tried: list[str] = []
     while S <= _TOL_MAX_STEPS:
         dyn = s.replace(steps_per_period=S).dynamics()
         try:
             if method == "shooting":
-                start = (None, None) if prev is None else (prev.u[0], prev.v[0])  # the coarser orbit
-                cur = shooting(dyn, *start, tol=inner, scheme=s.scheme)
+                if prev is not None:
+                    # the coarser orbit, plus the difference of the two S at the last speed; this
+                    # S's monodromy matrix at the last speed, or the orbit's own (the coarser S's
+                    # is a poor guide: its unresolved modes differ)
+                    x = np.concatenate([prev.u[0], prev.v[0]])
+                    lo = prev.dynamics.steps
+                    if memo is not None and lo in memo["x"] and S in memo["x"]:
+                        x = x + _predict(memo, S, s.crank_speed_rpm) - _predict(memo, lo, s.crank_speed_rpm)
+                    n = dyn.n
+                    start = (x[:n], x[n:])
+                    Phi = None if memo is None or S in memo["stale"] else memo["monodromy"].get(S)
+                elif memo is not None and S in memo["x"]:  # the remembered orbit, scaled to this speed
+                    x, n = _predict(memo, S, s.crank_speed_rpm), dyn.n
+                    start, Phi = (x[:n], x[n:]), None if S in memo["stale"] else memo["monodromy"].get(S)
+                else:
+                    start, Phi = (None, None), None
+                cur = shooting(dyn, *start, tol=inner, scheme=s.scheme, _monodromy=Phi)
+                if Phi is not None and "monodromy" in cur._cache:
+                    stale.add(S)  # the last speed's matrix fell short: take this S's own from now on
             else:
                 cur = march(dyn, tol=inner, scheme=s.scheme)
         except (NewtonConvergenceError, SteadyStateError) as exc:
@@ -766,6 +832,7 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
             prev, S = None, 2 * S
             continue
         cur.setup = s.replace(steps_per_period=S)
+        solved.append(cur)
         if prev is not None:
             err = _deflection_change(prev, cur)
             tried.append(f"S = {prev.dynamics.steps} to {S}: {err:.2e}")
@@ -777,12 +844,53 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
                                f"deflections of {' and '.join(s.params.linkage.couplers)} changed by at most "
                                f"{err:.2g} of their peak-to-peak "
                                f"value from S = {prev.dynamics.steps} to S = {S}")}
+                if key is not None:
+                    _remember(key, s.crank_speed_rpm, solved, stale)
                 return cur
         prev, S = cur, 2 * S
     raise SteadyStateError(
         f"no S up to {_TOL_MAX_STEPS} reaches tol = {tol:g} on the midpoint deflections of "
         f"{' and '.join(s.params.linkage.couplers)} "
         f"({'; '.join(tried)}); ask for a larger tol, or solve at a given S (steps_per_period)")
+
+
+def _scaled(x: NDArray, ratio: float) -> NDArray:
+    """A state (u, v) at t = 0 scaled to a speed ``ratio`` times its own, as the quasi-static
+    response scales (u with the square of the speed, v = du/dt with its cube)."""
+    n = len(x) // 2
+    return np.concatenate([ratio ** 2 * x[:n], ratio ** 3 * x[n:]])
+
+
+def _predict(memo: dict, S: int, rpm: float) -> NDArray:
+    """The orbit's state at t = 0 at ``rpm`` and S from the remembered ones: the last speed's,
+    scaled (:func:`_scaled`), and with the speed before it (when it lies on the same side, no
+    farther than twice the step) the secant through the two scaled states."""
+    x1, rpm1 = memo["x"][S], memo["rpm"]
+    z = _scaled(x1, 1.0 / rpm1)
+    before = memo.get("before")
+    if before is not None and S in before["x"]:
+        step = rpm1 - before["rpm"]
+        if step != 0.0 and 0.0 < (rpm - rpm1) / step <= 2.0:
+            z = z + (rpm - rpm1) / step * (z - _scaled(before["x"][S], 1.0 / before["rpm"]))
+    return _scaled(z, rpm)
+
+
+def _remember(key, rpm: float, solved: list[SteadyState], stale: set[int]) -> None:
+    """Keep the orbits solved at ``rpm`` (and their monodromy matrices; where none was taken,
+    the last speed's stays) as the predictor of the next speed of the same problem, with the
+    S at which a neighbouring speed's matrix proved too stale to serve; the four most recent
+    problems are kept."""
+    old = _ORBITS.pop(key, None)
+    memo = {"rpm": rpm, "x": {}, "monodromy": {} if old is None else dict(old["monodromy"]), "stale": stale,
+            "before": None if old is None else {"rpm": old["rpm"], "x": old["x"]}}
+    for r in solved:
+        S = r.dynamics.steps
+        memo["x"][S] = np.concatenate([r.u[0], r.v[0]])
+        if "monodromy" in r._cache:  # else the one of an earlier speed stays (the chord method's guide)
+            memo["monodromy"][S] = r._cache["monodromy"]
+    _ORBITS[key] = memo
+    while len(_ORBITS) > 4:
+        _ORBITS.pop(next(iter(_ORBITS)))
 
 
 def _deflection_change(coarse: SteadyState, fine: SteadyState) -> float:
