@@ -326,13 +326,15 @@ def test_a_new_speed_predicted_from_the_last_meets_the_tolerance_and_the_cold_st
             assert warm_mono < cold_mono and warm_cost < cold_cost, (warm_mono, cold_mono, warm_cost, cold_cost)
 
 
-def test_a_stale_monodromy_matrix_still_reaches_the_orbit():
+@pytest.mark.parametrize("nonlinear", [True, False])
+def test_a_stale_monodromy_matrix_still_reaches_the_orbit(nonlinear):
     """Shooting started with a wrong Jacobian (the monodromy matrix of a speed 10 % away, or
     none at all: zeros, Picard's iteration) must still reach the orbit of Newton's method
-    (it takes the orbit's own matrix when the stale one falls short)."""
+    (it takes the orbit's own matrix when the stale one falls short), and report the orbit's
+    own Floquet multipliers, not the given matrix's."""
     import fivebar.steady as st
 
-    s = dict(motors=False, nonlinear=True, steps_per_period=100)
+    s = dict(motors=False, nonlinear=nonlinear, steps_per_period=100)
     sch = GeneralizedAlpha(0.8)
     newton = shooting(LinkageDynamics(P, crank_speed_rpm=600, **s), scheme=sch)
     far = shooting(LinkageDynamics(P, crank_speed_rpm=660, **s), scheme=sch)

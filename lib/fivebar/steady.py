@@ -571,7 +571,7 @@ def shooting(
         if W_new is not None:
             W, solve, current, own = W_new, _newton_step(W_new, V, D), True, True
         else:
-            current = linear
+            current = linear and own  # a given matrix is not this orbit's, even if linear
         if slow and current and V is not full:
             V, current = full, False  # the modes left to Picard's iteration decay too slowly
         refresh = slow and not current
