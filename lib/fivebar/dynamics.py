@@ -177,7 +177,8 @@ class LinkageDynamics:
         self.steps = int(S)
         self.period = params.period
         self.dt = self.period / self.steps
-        self.model: Model = _model(params, elements_per_link, bool(motors))
+        # the model (element matrices, mesh) does not depend on the speed: one per geometry
+        self.model: Model = _model(params if speed_free is None else speed_free, elements_per_link, bool(motors))
         rotor = {d for i in self.model.motor_dofs for d in self.model.motor_dofs[i][:2]}
         #: indices (into the model's DOFs) of the linkage subsystem
         self.keep = np.array([i for i in range(self.model.n) if i not in rotor])

@@ -37,6 +37,7 @@ requested accuracy of the midpoint deflections: for 1 % it takes S = 100 to 200 
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
@@ -300,12 +301,21 @@ class SteadyState:
             q = self._element_displacements()  # (S+1, nel, 8)
             out: dict[str, float] = {}
             for i, el in enumerate(m.elements):
-                N2 = shape_functions(np.linspace(0.0, el.length, points), el.length, derivative=2)
-                N2[:, [0, 4]] = 0.0
+                N2 = _curvature_shapes(el.length, points)
                 kappa = np.abs(q[:, i, :] @ N2.T).max()
                 out[el.link] = max(out.get(el.link, 0.0), p.E * 0.5 * p.bending_depth * kappa)
             self._cache[key] = out
         return dict(self._cache[key])
+
+
+@functools.lru_cache(maxsize=64)
+def _curvature_shapes(length: float, points: int) -> NDArray:
+    """Second derivatives of the shape functions at ``points`` points of an element, the
+    axial DOFs zeroed (read-only; the same for every result of a mesh)."""
+    N2 = shape_functions(np.linspace(0.0, length, points), length, derivative=2)
+    N2[:, [0, 4]] = 0.0
+    N2.flags.writeable = False
+    return N2
 
 
 def _scheme_text(scheme: Scheme | None) -> str:
