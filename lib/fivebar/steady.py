@@ -32,7 +32,9 @@ linear model one period with the monodromy matrix and one without reach the orbi
 fixed-point step on the rest (the Newton-Picard method), which the dissipative scheme
 contracts strongly in one period.  ``steady_state(params, tol=0.01)`` chooses S itself for a
 requested accuracy of the midpoint deflections: for 1 % it takes S = 100 to 200 up to
-600 r/min with the motors off, some 10-30 ms per speed (``benchmarks/bench_story.py``).
+600 r/min with the motors off (``benchmarks/bench_story.py``).  A further speed of the same
+problem starts from the last speed's orbits and monodromy matrices (:func:`_to_tolerance`):
+at 300 r/min one or two periods per S, none of them with a monodromy matrix.
 """
 
 from __future__ import annotations
@@ -743,7 +745,8 @@ def steady_state(
         period (Figure 6), for example 0.01; ``None`` (default) solves at the set-up's S.  With
         ``tol`` the library chooses S (the set-up's S is not used; do not pass
         ``steps_per_period``): it solves at S = 50, 100, 200, ... (each from the previous
-        orbit, sampling no step time twice) until the deflection curves of two successive S
+        orbit, sampling no step time twice; after a first speed, each from the orbit of the
+        last speed of the same problem, scaled) until the deflection curves of two successive S
         differ by at most ``tol`` of their peak-to-peak value at every sample, and returns the
         finer one.  For the second-order schemes that change over-estimates the finer
         solution's error in the asymptotic range (about three times).  ``res.accuracy`` holds
