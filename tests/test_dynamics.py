@@ -340,7 +340,7 @@ def test_a_stale_monodromy_matrix_still_reaches_the_orbit(nonlinear):
     far = shooting(LinkageDynamics(P, crank_speed_rpm=660, **s), scheme=sch)
     d = LinkageDynamics(P, crank_speed_rpm=600, **s)
     for Phi in (far._cache["monodromy"], np.zeros((2 * d.n, 2 * d.n))):
-        res = st.shooting(d, far.u[0], far.v[0], scheme=sch, _monodromy=Phi)
+        res = st._shooting(d, far.u[0], far.v[0], 1e-10, 20, sch, monodromy=Phi)
         for link in ("L2", "L3"):
             assert np.abs(res.midpoint(link) - newton.midpoint(link)).max() <= 1e-7 * np.ptp(newton.midpoint(link))
         assert np.allclose(res.floquet_multipliers[:4], newton.floquet_multipliers[:4], rtol=1e-6)

@@ -33,7 +33,7 @@ fixed-point step on the rest (the Newton-Picard method), which the dissipative s
 contracts strongly in one period.  ``steady_state(params, tol=0.01)`` chooses S itself for a
 requested accuracy of the midpoint deflections: for 1 % it takes S = 100 to 200 up to
 600 r/min with the motors off (``benchmarks/bench_story.py``).  A further speed of the same
-problem starts from the last speed's orbits and monodromy matrices (:func:`_to_tolerance`):
+problem starts from the last speed's orbits and monodromy matrices (see ``steady_state``):
 at 300 r/min one or two periods per S, none of them with a monodromy matrix.
 """
 
@@ -459,7 +459,6 @@ def shooting(
     tol: float = 1e-10,
     max_iter: int = 20,
     scheme: Scheme | None = None,
-    _monodromy: NDArray | None = None,
 ) -> SteadyState:
     r"""Damped Newton's method on the periodicity condition, with the Newmark monodromy matrix.
 
@@ -476,13 +475,17 @@ def shooting(
     the nonlinearity a fresh :math:`\boldsymbol\Phi` is taken when the residual falls by
     less than a factor 10 in a step, or when a step with the old one fails.  The Floquet
     multipliers of a nonlinear orbit are computed when first asked for.
-
-    ``_monodromy`` (private, up to :data:`_DENSE_MAX_DOFS` DOFs): a monodromy matrix (2 n, 2 n)
-    of a nearby problem (the same model at a neighbouring S or speed) to start the chord
-    iteration with; it is replaced by the orbit's own when a step with it falls short, as a
-    stale one is.  The last monodromy matrix factorised is kept with the result (for the next
-    problem of a sequence).
     """
+    return _shooting(dyn, u0, v0, tol, max_iter, scheme)
+
+
+def _shooting(dyn, u0, v0, tol, max_iter, scheme, monodromy: NDArray | None = None) -> SteadyState:
+    """:func:`shooting`, optionally started with ``monodromy`` (up to 32 DOFs): a monodromy
+    matrix (2 n, 2 n) of a nearby problem (the same model at a neighbouring speed) as the chord
+    iteration's first Jacobian; the orbit's own replaces it when a step with it falls short, as
+    with a stale one.  The orbit's own monodromy matrix, when one was taken, is kept with the
+    result (``_cache["monodromy"]``, for the next problem of a sequence)."""
+    _monodromy = monodromy
     tol = number("tol", tol, low=0.0, low_open=True)
     max_iter = number("max_iter", max_iter, integer=True, low=1, high=MAX_SHOOTING_ITER)
     dyn, scheme, setup = _dynamics_and_scheme(dyn, scheme)
@@ -835,7 +838,8 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
                     start, Phi = (x[:n], x[n:]), None if S in memo["stale"] else memo["monodromy"].get(S)
                 else:
                     start, Phi = (None, None), None
-                cur = shooting(dyn, *start, tol=inner, scheme=s.scheme, _monodromy=Phi)
+                cur = _shooting(dyn, *start, inner, shooting.__defaults__[3], s.scheme,  # its max_iter
+                                monodromy=Phi)
                 if Phi is not None and "monodromy" in cur._cache:
                     stale.add(S)  # the last speed's matrix fell short: take this S's own from now on
             else:
