@@ -540,7 +540,7 @@ def _shooting(dyn, u0, v0, tol, max_iter, scheme, monodromy: NDArray | None = No
             f"shooting could not integrate the first period: {exc}. " + _remedy(scheme, dyn.steps),
             exc.t, exc.residual, exc.iterations) from exc
     periods = 1
-    solve = _newton_step(W, V, D)
+    solve = _given_step(_monodromy, W, V, D) if given else _newton_step(W, V, D)
     # the factorised Jacobian is that of the present x (at every x, if linear)
     current = not given
     own = not given  # W is this problem's own monodromy matrix (not the one given)
@@ -681,6 +681,23 @@ def _newton_step(W: NDArray, V: NDArray, D: NDArray):
         c = Vs.T @ h
         return (Vs @ (Zt.T @ ((U.T @ -c) / sv)) + (h - Vs @ c)) / D
     return step
+
+
+#: the factorised steps of given monodromy matrices (a remembered one serves several speeds)
+_GIVEN_STEPS: dict = {}
+
+
+def _given_step(Phi: NDArray, W: NDArray, V: NDArray, D: NDArray):
+    """:func:`_newton_step` of a given monodromy matrix ``Phi`` (``W = Phi V``), factorised once
+    for the same array and scaling (the 16 most recent kept)."""
+    hit = _GIVEN_STEPS.get(id(Phi))
+    if hit is not None and hit[0] is Phi and np.array_equal(hit[1], D):
+        return hit[2]
+    solve = _newton_step(W, V, D)
+    _GIVEN_STEPS[id(Phi)] = (Phi, D.copy(), solve)
+    while len(_GIVEN_STEPS) > 16:
+        _GIVEN_STEPS.pop(next(iter(_GIVEN_STEPS)))
+    return solve
 
 
 def _multipliers(Phi: NDArray) -> NDArray:
