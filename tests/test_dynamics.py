@@ -281,6 +281,71 @@ def test_steady_state_to_a_tolerance_meets_it_against_a_fine_reference(rpm, nonl
     assert steps[1] > steps[0]  # a finer tolerance takes a finer step
 
 
+@pytest.mark.parametrize("rpm", [300.0, 600.0])
+def test_a_new_speed_predicted_from_the_last_meets_the_tolerance_and_the_cold_start(rpm, monkeypatch):
+    """A sequence of speeds with ``tol``: each after the first starts from the remembered
+    orbits and monodromy matrices.  Each result must lie within tol of its own S = 3200
+    solution, choose the S of a cold start, agree with the cold start's curves to well below
+    tol (the inner tolerance), be periodic, and (the point of the predictor; at 300 r/min) cost
+    less than the cold start: fewer periods with a monodromy matrix (which cost about two
+    without), and fewer in all counting those as two."""
+    import fivebar.steady as st
+
+    s = dict(motors=False, nonlinear=True)
+    monkeypatch.setattr(st, "_ORBITS", {})
+    count = {"mono": 0, "all": 0}
+    period = st._period
+
+    def counted(*a, **k):
+        count["all"] += 1
+        count["mono"] += bool(k.get("sensitivity"))
+        return period(*a, **k)
+    monkeypatch.setattr(st, "_period", counted)
+
+    def cost(**kw):
+        count.update(mono=0, all=0)
+        res = steady_state(P, tol=0.01, **s, **kw)
+        return res, count["mono"], count["all"] + count["mono"]
+    steady_state(P, crank_speed_rpm=rpm, tol=0.01, **s)  # remembered
+    for k in (1, 2):
+        speed = rpm * (1.0 + 0.01 * k)
+        warm, warm_mono, warm_cost = cost(crank_speed_rpm=speed)
+        saved = dict(st._ORBITS)
+        st._ORBITS.clear()
+        cold, cold_mono, cold_cost = cost(crank_speed_rpm=speed)
+        st._ORBITS.update(saved)
+        ref = steady_state(P, crank_speed_rpm=speed, steps_per_period=3200, **s)
+        S = warm.dynamics.steps
+        assert S == cold.dynamics.steps and warm.accuracy["tried"][:-1] == cold.accuracy["tried"][:-1]
+        for link in ("L2", "L3"):
+            span = np.ptp(ref.midpoint(link))
+            assert np.abs(warm.midpoint(link) - ref.midpoint(link)[:: 3200 // S]).max() <= 0.01 * span
+            assert np.abs(warm.midpoint(link) - cold.midpoint(link)).max() <= 1e-4 * span
+        assert warm.residual <= 1e-6
+        if rpm == 300.0:  # near 600 r/min the last speed's matrices fall short (see _to_tolerance)
+            assert warm_mono < cold_mono and warm_cost < cold_cost, (warm_mono, cold_mono, warm_cost, cold_cost)
+
+
+@pytest.mark.parametrize("nonlinear", [True, False])
+def test_a_stale_monodromy_matrix_still_reaches_the_orbit(nonlinear):
+    """Shooting started with a wrong Jacobian (the monodromy matrix of a speed 10 % away, or
+    none at all: zeros, Picard's iteration) must still reach the orbit of Newton's method
+    (it takes the orbit's own matrix when the stale one falls short), and report the orbit's
+    own Floquet multipliers, not the given matrix's."""
+    import fivebar.steady as st
+
+    s = dict(motors=False, nonlinear=nonlinear, steps_per_period=100)
+    sch = GeneralizedAlpha(0.8)
+    newton = shooting(LinkageDynamics(P, crank_speed_rpm=600, **s), scheme=sch)
+    far = shooting(LinkageDynamics(P, crank_speed_rpm=660, **s), scheme=sch)
+    d = LinkageDynamics(P, crank_speed_rpm=600, **s)
+    for Phi in (far._cache["monodromy"], np.zeros((2 * d.n, 2 * d.n))):
+        res = st._shooting(d, far.u[0], far.v[0], 1e-10, 20, sch, monodromy=Phi)
+        for link in ("L2", "L3"):
+            assert np.abs(res.midpoint(link) - newton.midpoint(link)).max() <= 1e-7 * np.ptp(newton.midpoint(link))
+        assert np.allclose(res.floquet_multipliers[:4], newton.floquet_multipliers[:4], rtol=1e-6)
+
+
 @pytest.mark.parametrize("kw", [dict(tol=0), dict(tol=1.5), dict(tol=True), dict(tol="1%"),
                                 dict(tol=0.01, steps_per_period=400)])
 def test_steady_state_tolerance_errors_name_the_value(kw):

@@ -107,6 +107,16 @@ def _speed_free(params: Params) -> Params:
     return _recent(_SPEED_FREE, params, lambda: params.replace(crank_speed_rpm=1.0))
 
 
+_AT_SPEED: dict = {}
+
+
+def _at_speed(params: Params, rpm: float) -> Params:
+    """``params.replace(crank_speed_rpm=rpm)``, made once per parameter set and speed (the S
+    compared by ``steady_state(..., tol=...)`` share it; validating a parameter set takes a
+    millisecond)."""
+    return _recent(_AT_SPEED, (params, float(rpm)), lambda: params.replace(crank_speed_rpm=rpm))
+
+
 def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
     """C = M Phi diag(2 zeta omega) Phi^T M for one frozen configuration (N s/m).
 
@@ -156,8 +166,10 @@ class LinkageDynamics:
         elements_per_link: tuple[int, int, int, int] | None = None,
         P=None,
     ) -> None:
+        speed_free = None
         if crank_speed_rpm is not None:
-            params = params.replace(crank_speed_rpm=crank_speed_rpm)
+            speed_free = _speed_free(params)  # the same for every speed: found in the cache
+            params = _at_speed(params, crank_speed_rpm)
         S = params.steps_per_period if steps_per_period is None else steps_per_period
         if isinstance(S, bool) or int(S) != S or S < 2:
             raise InputError(f"steps_per_period = {steps_per_period!r} is not allowed: give an integer >= 2")
@@ -165,7 +177,8 @@ class LinkageDynamics:
         self.steps = int(S)
         self.period = params.period
         self.dt = self.period / self.steps
-        self.model: Model = _model(params, elements_per_link, bool(motors))
+        # the model (element matrices, mesh) does not depend on the speed: one per geometry
+        self.model: Model = _model(params if speed_free is None else speed_free, elements_per_link, bool(motors))
         rotor = {d for i in self.model.motor_dofs for d in self.model.motor_dofs[i][:2]}
         #: indices (into the model's DOFs) of the linkage subsystem
         self.keep = np.array([i for i in range(self.model.n) if i not in rotor])
@@ -176,7 +189,7 @@ class LinkageDynamics:
         self.t = t
         self._key = None  # the sample cache's key (None: not cached)
         with _blas_threads(1):  # many small dense problems: threaded BLAS only adds overhead
-            M, C, K, F = self._sampled(t, elements_per_link, motors)
+            M, C, K, F = self._sampled(t, elements_per_link, motors, speed_free)
         # the nonlinear force's view of the configuration at the S step times (the element
         # rotations), so that f_nl(u, t) at a step time does no kinematics: made when first
         # needed, and like the samples the same at every speed
@@ -189,7 +202,8 @@ class LinkageDynamics:
         the five-bar)."""
         return crank_laws(self.params, t)[0::3]
 
-    def _sampled(self, t: NDArray, elements_per_link, motors) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    def _sampled(self, t: NDArray, elements_per_link, motors,
+                 speed_free: Params | None = None) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """M, C, K, F at the S step times, from the speed-independent cache when it serves.
 
         At constant crank speed the step times k T / S meet the same crank angles at every
@@ -200,7 +214,7 @@ class LinkageDynamics:
         if self._P is not None or self.params.damping_model == "stiffness":
             return self._sample(t)  # (stiffness damping: K holds a term linear in the speed)
         p = self.params
-        key = (_speed_free(p), self.steps, elements_per_link, bool(motors))
+        key = (_speed_free(p) if speed_free is None else speed_free, self.steps, elements_per_link, bool(motors))
         try:
             hash(key)
         except TypeError:  # an unhashable parameter set: no cache

@@ -32,11 +32,14 @@ linear model one period with the monodromy matrix and one without reach the orbi
 fixed-point step on the rest (the Newton-Picard method), which the dissipative scheme
 contracts strongly in one period.  ``steady_state(params, tol=0.01)`` chooses S itself for a
 requested accuracy of the midpoint deflections: for 1 % it takes S = 100 to 200 up to
-600 r/min with the motors off, some 10-30 ms per speed (``benchmarks/bench_story.py``).
+600 r/min with the motors off (``benchmarks/bench_story.py``).  A further speed of the same
+problem starts from the last speed's orbits and monodromy matrices (see ``steady_state``):
+at 300 r/min one or two periods per S, none of them with a monodromy matrix.
 """
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
@@ -300,12 +303,21 @@ class SteadyState:
             q = self._element_displacements()  # (S+1, nel, 8)
             out: dict[str, float] = {}
             for i, el in enumerate(m.elements):
-                N2 = shape_functions(np.linspace(0.0, el.length, points), el.length, derivative=2)
-                N2[:, [0, 4]] = 0.0
+                N2 = _curvature_shapes(el.length, points)
                 kappa = np.abs(q[:, i, :] @ N2.T).max()
                 out[el.link] = max(out.get(el.link, 0.0), p.E * 0.5 * p.bending_depth * kappa)
             self._cache[key] = out
         return dict(self._cache[key])
+
+
+@functools.lru_cache(maxsize=64)
+def _curvature_shapes(length: float, points: int) -> NDArray:
+    """Second derivatives of the shape functions at ``points`` points of an element, the
+    axial DOFs zeroed (read-only; the same for every result of a mesh)."""
+    N2 = shape_functions(np.linspace(0.0, length, points), length, derivative=2)
+    N2[:, [0, 4]] = 0.0
+    N2.flags.writeable = False
+    return N2
 
 
 def _scheme_text(scheme: Scheme | None) -> str:
@@ -464,6 +476,16 @@ def shooting(
     less than a factor 10 in a step, or when a step with the old one fails.  The Floquet
     multipliers of a nonlinear orbit are computed when first asked for.
     """
+    return _shooting(dyn, u0, v0, tol, max_iter, scheme)
+
+
+def _shooting(dyn, u0, v0, tol, max_iter, scheme, monodromy: NDArray | None = None) -> SteadyState:
+    """:func:`shooting`, optionally started with ``monodromy`` (up to 32 DOFs): a monodromy
+    matrix (2 n, 2 n) of a nearby problem (the same model at a neighbouring speed) as the chord
+    iteration's first Jacobian; the orbit's own replaces it when a step with it falls short, as
+    with a stale one.  The orbit's own monodromy matrix, when one was taken, is kept with the
+    result (``_cache["monodromy"]``, for the next problem of a sequence)."""
+    _monodromy = monodromy
     tol = number("tol", tol, low=0.0, low_open=True)
     max_iter = number("max_iter", max_iter, integer=True, low=1, high=MAX_SHOOTING_ITER)
     dyn, scheme, setup = _dynamics_and_scheme(dyn, scheme)
@@ -498,9 +520,12 @@ def shooting(
         return res, W, g, a, a / max(scale, 1e-300)
 
     x = np.concatenate([np.asarray(u0, float), np.asarray(v0, float)])
+    given = _monodromy is not None and V is full and np.shape(_monodromy) == (2 * n, 2 * n)
     try:
         try:
-            res, W, g, a, r = evaluate(x, True)
+            res, W, g, a, r = evaluate(x, not given)
+            if given:
+                W = np.asarray(_monodromy, float) / D[None, :]  # Phi V, V = diag(1 / D)
         except NewtonConvergenceError:
             # a non-dissipative scheme can blow up within one period from the quasi-static
             # start (errata E26): start instead from the orbit of the dissipative default
@@ -515,8 +540,10 @@ def shooting(
             f"shooting could not integrate the first period: {exc}. " + _remedy(scheme, dyn.steps),
             exc.t, exc.residual, exc.iterations) from exc
     periods = 1
-    solve = _newton_step(W, V, D)
-    current = True  # the factorised Jacobian is that of the present x (at every x, if linear)
+    solve = _given_step(_monodromy, W, V, D) if given else _newton_step(W, V, D)
+    # the factorised Jacobian is that of the present x (at every x, if linear)
+    current = not given
+    own = not given  # W is this problem's own monodromy matrix (not the one given)
     refresh = False  # evaluate the next trial with its monodromy matrix
     for it in range(1, max_iter + 2):
         if r <= tol:
@@ -524,8 +551,11 @@ def shooting(
                 floquet = _Constant(W * D[None, :])  # W = Phi diag(1 / D)
             else:
                 floquet = _OrbitMonodromy(dyn, scheme, x)
-            return SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, floquet, residual=r, scheme=scheme,
-                               setup=setup)
+            out = SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, floquet, residual=r, scheme=scheme,
+                              setup=setup)
+            if V is full and own:
+                out._cache["monodromy"] = W * D[None, :]
+            return out
         if it > max_iter:
             break
         y = solve(g)
@@ -541,7 +571,7 @@ def shooting(
             if not current:  # the Jacobian is stale: take it at x and try the full step again
                 _, W, _, _, _ = evaluate(x, True)
                 periods += 1
-                solve, current = _newton_step(W, V, D), True
+                solve, current, own = _newton_step(W, V, D), True, True
                 y, lam = solve(g), 1.0
                 continue
             lam *= 0.5
@@ -554,9 +584,9 @@ def shooting(
         slow = trial[3] > 0.1 * a
         res, W_new, g, a, r = trial
         if W_new is not None:
-            W, solve, current = W_new, _newton_step(W_new, V, D), True
+            W, solve, current, own = W_new, _newton_step(W_new, V, D), True, True
         else:
-            current = linear
+            current = linear and own  # a given matrix is not this orbit's, even if linear
         if slow and current and V is not full:
             V, current = full, False  # the modes left to Picard's iteration decay too slowly
         refresh = slow and not current
@@ -653,6 +683,23 @@ def _newton_step(W: NDArray, V: NDArray, D: NDArray):
     return step
 
 
+#: the factorised steps of given monodromy matrices (a remembered one serves several speeds)
+_GIVEN_STEPS: dict = {}
+
+
+def _given_step(Phi: NDArray, W: NDArray, V: NDArray, D: NDArray):
+    """:func:`_newton_step` of a given monodromy matrix ``Phi`` (``W = Phi V``), factorised once
+    for the same array and scaling (the 16 most recent kept)."""
+    hit = _GIVEN_STEPS.get(id(Phi))
+    if hit is not None and hit[0] is Phi and np.array_equal(hit[1], D):
+        return hit[2]
+    solve = _newton_step(W, V, D)
+    _GIVEN_STEPS[id(Phi)] = (Phi, D.copy(), solve)
+    while len(_GIVEN_STEPS) > 16:
+        _GIVEN_STEPS.pop(next(iter(_GIVEN_STEPS)))
+    return solve
+
+
 def _multipliers(Phi: NDArray) -> NDArray:
     """Eigenvalues of a monodromy matrix, largest modulus first."""
     mult = scipy.linalg.eigvals(Phi)
@@ -718,7 +765,8 @@ def steady_state(
         period (Figure 6), for example 0.01; ``None`` (default) solves at the set-up's S.  With
         ``tol`` the library chooses S (the set-up's S is not used; do not pass
         ``steps_per_period``): it solves at S = 50, 100, 200, ... (each from the previous
-        orbit, sampling no step time twice) until the deflection curves of two successive S
+        orbit, sampling no step time twice; after a first speed, each from the orbit of the
+        last speed of the same problem, scaled) until the deflection curves of two successive S
         differ by at most ``tol`` of their peak-to-peak value at every sample, and returns the
         finer one.  For the second-order schemes that change over-estimates the finer
         solution's error in the asymptotic range (about three times).  ``res.accuracy`` holds
@@ -747,18 +795,70 @@ def steady_state(
     return res
 
 
+#: the last orbits of ``steady_state(..., tol=...)`` per problem but its speed (the set-up at
+#: 1 r/min, method, tol): the speed, the S compared and, at each, the state at t = 0 and the
+#: monodromy matrix; the predictor of the next speed (kept for the few most recent problems)
+_ORBITS: dict = {}
+#: a remembered orbit predicts the next only within this relative change of the speed
+_PREDICT_RANGE = 0.25
+
+
 def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
-    """Steady states at S = 50, 100, 200, ... until two successive ones agree to ``tol``."""
+    """Steady states at S = 50, 100, 200, ... until two successive ones agree to ``tol``.
+
+    Each S starts from the orbit of the coarser S.  After a first speed, a new speed of the
+    same problem (within :data:`_PREDICT_RANGE` of it) starts every S from the orbit remembered
+    at that S, scaled as the quasi-static response scales with the speed (u as its square, v
+    as its cube; at the finer S the coarser S's new orbit plus the remembered difference of
+    the two), and takes the remembered monodromy matrix of that S as the chord iteration's
+    Jacobian: one to three periods without a monodromy matrix per S (where the multipliers
+    turn quickly with the speed, as near 600 r/min, a neighbouring speed's matrix falls short;
+    from then on that S takes its own, one period with it).  The S tried and chosen
+    are those of a first call (50, 100, ...), and the orbits differ from a first call's only
+    within the inner tolerance of the orbit (relative periodicity residual 1e-3 ``tol``, at
+    most 1e-6).
+    """
     inner = min(1e-6, 1e-3 * tol)  # the orbit to well below tol: residual of shooting, change of march
-    S = max(_TOL_FIRST_STEPS, min_steps_per_period(s.params))
+    S_min = max(_TOL_FIRST_STEPS, min_steps_per_period(s.params))
+    S = S_min
+    key = None
+    memo = None
+    if method == "shooting":
+        key = (s.replace(crank_speed_rpm=1.0), tol)
+        try:
+            memo = _ORBITS.get(key)
+        except TypeError:  # an unhashable parameter set: no memory
+            key = None
+    if memo is not None and abs(s.crank_speed_rpm / memo["rpm"] - 1.0) > _PREDICT_RANGE:
+        memo = None
+    solved: list[SteadyState] = []
+    stale: set[int] = set() if memo is None else set(memo["stale"])
     prev: SteadyState | None = None
     tried: list[str] = []
     while S <= _TOL_MAX_STEPS:
         dyn = s.replace(steps_per_period=S).dynamics()
         try:
             if method == "shooting":
-                start = (None, None) if prev is None else (prev.u[0], prev.v[0])  # the coarser orbit
-                cur = shooting(dyn, *start, tol=inner, scheme=s.scheme)
+                if prev is not None:
+                    # the coarser orbit, plus the difference of the two S at the last speed; this
+                    # S's monodromy matrix at the last speed, or the orbit's own (the coarser S's
+                    # is a poor guide: its unresolved modes differ)
+                    x = np.concatenate([prev.u[0], prev.v[0]])
+                    lo = prev.dynamics.steps
+                    if memo is not None and lo in memo["x"] and S in memo["x"]:
+                        x = x + _predict(memo, S, s.crank_speed_rpm) - _predict(memo, lo, s.crank_speed_rpm)
+                    n = dyn.n
+                    start = (x[:n], x[n:])
+                    Phi = None if memo is None or S in memo["stale"] else memo["monodromy"].get(S)
+                elif memo is not None and S in memo["x"]:  # the remembered orbit, scaled to this speed
+                    x, n = _predict(memo, S, s.crank_speed_rpm), dyn.n
+                    start, Phi = (x[:n], x[n:]), None if S in memo["stale"] else memo["monodromy"].get(S)
+                else:
+                    start, Phi = (None, None), None
+                cur = _shooting(dyn, *start, inner, shooting.__defaults__[3], s.scheme,  # its max_iter
+                                monodromy=Phi)
+                if Phi is not None and "monodromy" in cur._cache:
+                    stale.add(S)  # the last speed's matrix fell short: take this S's own from now on
             else:
                 cur = march(dyn, tol=inner, scheme=s.scheme)
         except (NewtonConvergenceError, SteadyStateError) as exc:
@@ -766,6 +866,7 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
             prev, S = None, 2 * S
             continue
         cur.setup = s.replace(steps_per_period=S)
+        solved.append(cur)
         if prev is not None:
             err = _deflection_change(prev, cur)
             tried.append(f"S = {prev.dynamics.steps} to {S}: {err:.2e}")
@@ -777,12 +878,53 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
                                f"deflections of {' and '.join(s.params.linkage.couplers)} changed by at most "
                                f"{err:.2g} of their peak-to-peak "
                                f"value from S = {prev.dynamics.steps} to S = {S}")}
+                if key is not None:
+                    _remember(key, s.crank_speed_rpm, solved, stale)
                 return cur
         prev, S = cur, 2 * S
     raise SteadyStateError(
         f"no S up to {_TOL_MAX_STEPS} reaches tol = {tol:g} on the midpoint deflections of "
         f"{' and '.join(s.params.linkage.couplers)} "
         f"({'; '.join(tried)}); ask for a larger tol, or solve at a given S (steps_per_period)")
+
+
+def _scaled(x: NDArray, ratio: float) -> NDArray:
+    """A state (u, v) at t = 0 scaled to a speed ``ratio`` times its own, as the quasi-static
+    response scales (u with the square of the speed, v = du/dt with its cube)."""
+    n = len(x) // 2
+    return np.concatenate([ratio ** 2 * x[:n], ratio ** 3 * x[n:]])
+
+
+def _predict(memo: dict, S: int, rpm: float) -> NDArray:
+    """The orbit's state at t = 0 at ``rpm`` and S from the remembered ones: the last speed's,
+    scaled (:func:`_scaled`), and with the speed before it (when it lies on the same side, no
+    farther than twice the step) the secant through the two scaled states."""
+    x1, rpm1 = memo["x"][S], memo["rpm"]
+    z = _scaled(x1, 1.0 / rpm1)
+    before = memo.get("before")
+    if before is not None and S in before["x"]:
+        step = rpm1 - before["rpm"]
+        if step != 0.0 and 0.0 < (rpm - rpm1) / step <= 2.0:
+            z = z + (rpm - rpm1) / step * (z - _scaled(before["x"][S], 1.0 / before["rpm"]))
+    return _scaled(z, rpm)
+
+
+def _remember(key, rpm: float, solved: list[SteadyState], stale: set[int]) -> None:
+    """Keep the orbits solved at ``rpm`` (and their monodromy matrices; where none was taken,
+    the last speed's stays) as the predictor of the next speed of the same problem, with the
+    S at which a neighbouring speed's matrix proved too stale to serve; the four most recent
+    problems are kept."""
+    old = _ORBITS.pop(key, None)
+    memo = {"rpm": rpm, "x": {}, "monodromy": {} if old is None else dict(old["monodromy"]), "stale": stale,
+            "before": None if old is None else {"rpm": old["rpm"], "x": old["x"]}}
+    for r in solved:
+        S = r.dynamics.steps
+        memo["x"][S] = np.concatenate([r.u[0], r.v[0]])
+        if "monodromy" in r._cache:  # else the one of an earlier speed stays (the chord method's guide)
+            memo["monodromy"][S] = r._cache["monodromy"]
+    _ORBITS[key] = memo
+    while len(_ORBITS) > 4:
+        _ORBITS.pop(next(iter(_ORBITS)))
 
 
 def _deflection_change(coarse: SteadyState, fine: SteadyState) -> float:
