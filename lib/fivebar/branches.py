@@ -304,8 +304,8 @@ def follow(
         set by the curvature of the branch (:func:`fivebar.continuation.continuation`: the
         tangent turns by about 0.2 rad per step) and by the corrector's iterations; ``ds_max``
         only bounds it where the branch is nearly straight, away from resonances.  On the
-        flexible orientation (10-300 r/min, S = 800, nonlinear, ``benchmarks/
-        bench_continuation.py``) the branch turns back at four folds (169.6, 160.9, 247.7 and
+        flexible orientation (10-300 r/min, S = 800, nonlinear; the benchmark
+        ``benchmarks/bench_continuation.py``) the branch turns back at four folds (169.6, 160.9, 247.7 and
         171.3 r/min); with ``ds_max`` = 1.5 / points the median step was that bound and 200
         points ended at 207.6 r/min, with 10 / points the branch reached 300 r/min in 196
         points (median step 0.0053, largest 0.05).
