@@ -205,3 +205,42 @@ def test_a_failing_map_stops_the_continuation_with_the_branch_so_far():
         continuation(failing, np.zeros(2), 0.1, 0.5, ds=0.05, ds_max=0.1, ds_min=1e-4)
     br = info.value.branch
     assert len(br.points) >= 3 and 0.29 < br.p[-1] <= 0.3 and "ds_min" in br.stop
+
+
+def test_a_large_maximum_step_does_not_skip_the_folds():
+    # ds_max the whole range: the step is set by the branch's curvature (and the corrector),
+    # so the narrow hysteresis loop of the Duffing oscillator is still followed around both
+    # folds, located where the fine continuation of the test above puts them (DOP853 fold
+    # condition, with the trapezoidal rule's period error)
+    zeta, alpha, F, S = 0.05, 1.0, 0.1, 100
+    br = continuation(_duffing(zeta, alpha, F, S), np.zeros(2), 0.6, 2.5, ds=0.5, ds_max=2.0)
+    assert br.stop.startswith("p_end")
+    folds = [b for b in br.bifurcations if b.kind == "fold"]
+    assert len(folds) == 2
+    period_error = (2 * math.pi / S) ** 2 / 12
+    for b in folds:
+        ref = _duffing_fold_reference(zeta, alpha, F, np.r_[b.x, b.p])
+        assert abs(b.p * (1 + period_error) - ref[2]) < 2e-5
+    # large steps are taken where the branch is straight (measured: up to 0.40)
+    assert br.steps.max() > 0.3
+
+
+def test_continuation_and_shooting_run_on_one_blas_thread():
+    # the path's discrete decisions depend on rounding, which threaded BLAS changes with the
+    # thread count: inside continuation (and shoot) the BLAS pools are limited to one thread
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    import scipy.linalg.cython_blas  # noqa: F401  (load scipy's BLAS, as the library does)
+
+    seen = []
+    base = _duffing(0.05, 1.0, 0.1, 50)
+
+    def watched(x, p=None, jacobian=False):
+        seen.append(max(i["num_threads"] for i in threadpoolctl.threadpool_info() if i["user_api"] == "blas"))
+        return base(x, p, jacobian)
+
+    with threadpoolctl.threadpool_limits(2, user_api="blas"):
+        outside = max(i["num_threads"] for i in threadpoolctl.threadpool_info() if i["user_api"] == "blas")
+        continuation(watched, np.zeros(2), 0.8, 0.9, ds=0.05, ds_max=0.1)
+    if outside < 2:
+        pytest.skip("one core: the BLAS pools cannot have two threads here")
+    assert seen and max(seen) == 1

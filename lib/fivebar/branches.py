@@ -37,7 +37,7 @@ from .continuation import Branch, ContinuationError, continuation, iterated_map,
 from .errors import FivebarError, InputError
 from .newmark import NewtonConvergenceError
 from .params import Params
-from .periodic import PeriodicOrbit, shoot
+from .periodic import PeriodicOrbit, _one_blas_thread, shoot
 from .setup import Setup, as_setup
 from .steady import SteadyState, _monodromy_period, _period, steady_state
 
@@ -269,6 +269,7 @@ def _scan_scale(f: LinkagePeriodMap, p0: float, p_end: float, count: int = 12) -
     return np.r_[E / np.sqrt(np.diag(sd.K[0])), E / (dyn.params.crank_speed * np.sqrt(np.diag(sd.M[0])))]
 
 
+@_one_blas_thread
 def follow(
     setup: Setup | Params,
     p_end: float,
@@ -299,7 +300,15 @@ def follow(
         ``"crank_speed_rpm"`` or a numeric parameter-file key (:func:`linkage_period_map`).
     points
         Budget of points (``max_points``); ``ds`` defaults to ``1 / points`` and ``ds_max`` to
-        ``1.5 / points`` (scaled arclength: the whole range of the parameter is 1).
+        ``10 / points`` (scaled arclength: the whole range of the parameter is 1).  The step is
+        set by the curvature of the branch (:func:`fivebar.continuation.continuation`: the
+        tangent turns by about 0.2 rad per step) and by the corrector's iterations; ``ds_max``
+        only bounds it where the branch is nearly straight, away from resonances.  On the
+        flexible orientation (10-300 r/min, S = 800, nonlinear; the benchmark
+        ``benchmarks/bench_continuation.py``) the branch turns back at four folds (169.6, 160.9, 247.7 and
+        171.3 r/min); with ``ds_max`` = 1.5 / points the median step was that bound and 200
+        points ended at 207.6 r/min, with 10 / points the branch reached 300 r/min in 196
+        points (median step 0.0053, largest 0.05).
     scale
         Scale of the state (default: from the energy norm, relative to the largest orbit of
         the linear model at 12 values across the range; see ``_scan_scale``).
@@ -332,7 +341,7 @@ def follow(
     D = (_scan_scale(f, p0, p_end) if scale is None else np.asarray(scale, float)) / state_weight
     step = 1.0 / int(points)
     ds = step if ds is None else ds
-    ds_max = 1.5 * step if ds_max is None else ds_max
+    ds_max = 10.0 * step if ds_max is None else ds_max
     x0 = f.state(steady_state(_setup_at(s, parameter, p0)))
     try:
         br = continuation(f, x0, p0, float(p_end), ds=min(ds, ds_max), ds_max=ds_max,
@@ -428,6 +437,7 @@ def _midpoint0(dyn, u: Array, link: str) -> float:
     return float(1e3 * tr[0])
 
 
+@_one_blas_thread
 def brute_force_diagram(
     setup: Setup | Params,
     values: ArrayLike,
@@ -508,6 +518,7 @@ class SpeedReport:
     found: PeriodicOrbit | None = None
 
 
+@_one_blas_thread
 def describe_speed(setup: Setup | Params, value: float | None = None, parameter: str = _SPEED, *,
                    periods: int = 400, branch: LinkageBranch | None = None) -> SpeedReport:
     """At one speed (or value of ``parameter``): the stable period-1 orbit, or what is found there.

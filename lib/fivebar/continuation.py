@@ -59,6 +59,15 @@ onto :math:`\mathbf P^2(\mathbf x) = \mathbf x` with the constraint
 :math:`(\mathbf e, 0)` made orthogonal to the period-1 tangent (so that the period-1 branch,
 also a fixed-point set of :math:`\mathbf P^2`, is excluded), and continues from there.
 
+**Reproducibility.**  The step control takes discrete decisions (accept, halve, grow) on
+quantities computed to rounding error, so a change of rounding changes the path (the points,
+their count, the last parameter reached within a budget of points), though not what is
+located on it (folds and bifurcations, to their tolerance).  Threaded BLAS rounds differently
+with the number of threads; :func:`continuation` and :func:`switch_period_doubling` therefore
+run with one BLAS thread (threadpoolctl; the matrices of a period map are small, for which
+one thread is also the faster), so the path does not depend on ``OPENBLAS_NUM_THREADS`` or the
+machine's core count.
+
 This module imports nothing of the linkage.  References: H. B. Keller, *Numerical solution of
 bifurcation and nonlinear eigenvalue problems* (1977); E. J. Doedel et al., AUTO-07P manual;
 A. Dhooge, W. Govaerts, Yu. A. Kuznetsov, MatCont (ACM TOMS 29, 2003).
@@ -73,7 +82,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import ComputationError, FivebarError, InputError
-from .periodic import PeriodMap, floquet_multipliers, monodromy, shoot
+from .periodic import PeriodMap, floquet_multipliers, monodromy, _one_blas_thread, shoot
 
 __all__ = [
     "Bifurcation",
@@ -332,6 +341,7 @@ def _outside_nonreal(mu: NDArray[np.complex128]) -> int:
     return int(np.count_nonzero(~real & (np.abs(mu) > 1)))
 
 
+@_one_blas_thread
 def continuation(
     period_map: PeriodMap,
     x0: ArrayLike,
@@ -625,6 +635,7 @@ def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, 
     return Bifurcation(kind, float(y[-1] * ps), D * y[:-1], mu, index, (float(pl), float(ph)), float(f), t, periods)
 
 
+@_one_blas_thread
 def switch_period_doubling(
     period_map: PeriodMap,
     bif: Bifurcation,

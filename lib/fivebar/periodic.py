@@ -38,6 +38,7 @@ condition is needed.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -48,7 +49,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import ComputationError, InputError
 from .newmark import (GENERIC_SCHEME, NewtonConvergenceError, PeriodicStepData, Scheme, SecondOrderSystem,
-                      integrate)
+                      _blas_threads, integrate)
 
 __all__ = [
     "PeriodMap",
@@ -305,6 +306,22 @@ class PeriodicOrbit:
         return self.spectral_radius < 1.0
 
 
+def _one_blas_thread(func: Callable[..., Any]) -> Callable[..., Any]:
+    """Run ``func`` with the BLAS thread pools limited to one thread (threadpoolctl).
+
+    Threaded BLAS rounds differently with the number of threads; with one thread the results
+    of shooting and continuation do not depend on ``OPENBLAS_NUM_THREADS`` or the core count
+    (and the small dense matrices of a period map are faster on one thread)."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with _blas_threads(1):
+            return func(*args, **kwargs)
+
+    return wrapper
+
+
+@_one_blas_thread
 def shoot(period_map: PeriodMap, x0: ArrayLike, p: float | None = None, tol: float = 1e-10,
           max_iter: int = 30, scale: ArrayLike | None = None) -> PeriodicOrbit:
     r"""Newton's method on :math:`\mathbf P(\mathbf x; p) - \mathbf x = \mathbf 0`.
