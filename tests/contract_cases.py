@@ -242,12 +242,12 @@ CASES = [
     bad("figure6_curves(params='p')", lambda: datasets.figure6_curves("p"), "params", "str"),
     bad("figure6_curves(steps_per_period=5)", lambda: datasets.figure6_curves(P, steps_per_period=5),
         "steps_per_period", "5"),
-    bad("frequencies_table(n=0)", lambda: datasets.frequencies_table(P, n=0), "n", "0"),
+    bad("frequencies_table(n_modes=0)", lambda: datasets.frequencies_table(P, n_modes=0), "n_modes", "0"),
     bad("frequencies_table(angles_deg='x')", lambda: datasets.frequencies_table(P, angles_deg="x"), "angles_deg", "'x'"),
     bad("frequencies_table(params=None)", lambda: datasets.frequencies_table(None), "params", "None"),
     bad("resonance_speeds_table(params=1)", lambda: datasets.resonance_speeds_table(1), "params", "int"),
     bad("sweep_table(speeds_rpm=[-1])", lambda: datasets.sweep_table(P, speeds_rpm=[-1]), "speeds_rpm", "-1"),
-    good("frequencies_table(n=np.int64(2))", lambda: datasets.frequencies_table(P, angles_deg=[0.0, 90.0], n=np.int64(2))),
+    good("frequencies_table(n_modes=np.int64(2))", lambda: datasets.frequencies_table(P, angles_deg=[0.0, 90.0], n_modes=np.int64(2))),
 ]
 
 

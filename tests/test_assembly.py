@@ -147,7 +147,7 @@ def test_inertial_load_is_the_consistent_load_of_the_rigid_acceleration_field():
 @pytest.mark.parametrize("motors", [True, False])
 def test_frozen_frequencies_converge_under_refinement(motors):
     meshes = [(1, 2, 2, 1), (2, 4, 4, 2), (4, 8, 8, 4), (8, 16, 16, 8)]
-    f = np.array([natural_frequencies(P, 0.4, 1.3, n=6, motors=motors, elements_per_link=e) for e in meshes])
+    f = np.array([natural_frequencies(P, 0.4, 1.3, n_modes=6, motors=motors, elements_per_link=e) for e in meshes])
     err = np.abs(f[:-1] - f[-1]) / f[-1]
     assert np.all(f[:-1] >= f[-1] * (1 - 1e-9))  # consistent mass: from above (to eigensolver round-off)
     assert np.all(err[1] <= err[0] + 1e-12) and np.all(err[2] <= err[1] + 1e-12)
@@ -158,10 +158,10 @@ def test_mean_frequencies_and_averaged_matrix_modes():
     from fivebar.kinematics import crank_laws
     from fivebar.modal import averaged_matrix_modes, frequencies_along_cycle, mean_frequencies
 
-    fm = mean_frequencies(P, steps=12, n=4)
-    f = frequencies_along_cycle(P, np.arange(12) * np.pi / 6, n=4)
+    fm = mean_frequencies(P, steps=12, n_modes=4)
+    f = frequencies_along_cycle(P, np.arange(12) * np.pi / 6, n_modes=4)
     assert np.allclose(fm, f.mean(axis=0)) and np.all(f.min(0) <= fm) and np.all(fm <= f.max(0))
-    md = averaged_matrix_modes(P, steps=12, n=5, frame="corotating")
+    md = averaged_matrix_modes(P, steps=12, n_modes=5, frame="corotating")
     m = md.model
     t = np.arange(12) * P.period / 12
     th1, _, _, th4, _, _ = crank_laws(P, t)
@@ -187,8 +187,8 @@ def test_mean_frequencies_and_averaged_matrix_modes():
 def test_bad_mesh_and_mode_count():
     with pytest.raises(ValueError, match=r"elements_per_link = \(1, 0, 2, 1\)"):
         build_model(P, elements_per_link=(1, 0, 2, 1))
-    with pytest.raises(ValueError, match="n = 0"):
-        natural_frequencies(P, 0, 0, n=0)
+    with pytest.raises(ValueError, match="n_modes = 0"):
+        natural_frequencies(P, 0, 0, n_modes=0)
 
 
 def test_link_displacement_of_a_known_field():

@@ -119,7 +119,7 @@ def test_bad_classifier_input(args, kwargs):
 # --- the linkage ---------------------------------------------------------------------------------------
 def test_linkage_frequencies_exclude_the_rotor_whirl_and_ignore_speed(params):
     f = linkage_frequencies(params, 6) / (2 * np.pi)
-    whirl = fivebar.natural_frequencies(params, 0.0, 0.0, n=8)
+    whirl = fivebar.natural_frequencies(params, 0.0, 0.0, n_modes=8)
     # the full model at crank angle 0 holds the rotor whirl (two pairs of equal frequencies) too
     assert not np.any(np.isclose(f[0][:, None], whirl[np.isclose(whirl, np.roll(whirl, 1))][None, :]))
     assert np.all(np.isin(np.round(f[0], 6), np.round(whirl, 6)))

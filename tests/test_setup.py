@@ -57,8 +57,8 @@ def test_bad_set_up_names_value_and_limit():
         Setup(P, steps_per_period=12)
     with pytest.raises(ValueError, match=r"crank_speed_rpm = -1"):
         Setup(P, crank_speed_rpm=-1)
-    with pytest.raises(ValueError, match=r"n = 500 modes .* at most \d+"):
-        fivebar.natural_frequencies(P, 0.0, 0.0, n=500)
+    with pytest.raises(ValueError, match=r"n_modes = 500 modes .* at most \d+"):
+        fivebar.natural_frequencies(P, 0.0, 0.0, n_modes=500)
     with pytest.raises(FivebarError, match="unknown Setup field"):
         Setup(P).replace(speed=3)
 

@@ -144,9 +144,9 @@ class ModeFrames:
     curve: NDArray
 
 
-def mode_frames(params: Params, n: int = 3, frames: int = 36, points: int = _POINTS,
+def mode_frames(params: Params, n_modes: int = 3, frames: int = 36, points: int = _POINTS,
                 motors: bool = True) -> ModeFrames:
-    """The ``n`` lowest mode shapes at ``frames`` crank angles over one turn of AB.
+    """The ``n_modes`` lowest mode shapes at ``frames`` crank angles over one turn of AB.
 
     Each shape is normalised to a largest link displacement of 6 % of L2 and its sign
     chosen to follow the previous frame (mode shapes have no sign of their own).  The modes
@@ -156,9 +156,9 @@ def mode_frames(params: Params, n: int = 3, frames: int = 36, points: int = _POI
     from .modal import frequencies_along_cycle, modes
 
     F = _check_frames(frames)
-    if isinstance(n, bool) or int(n) != n or not 1 <= n <= 6:
-        raise InputError(f"n = {n!r} is not allowed: give an integer number of modes from 1 to 6")
-    n = int(n)
+    if isinstance(n_modes, bool) or int(n_modes) != n_modes or not 1 <= n_modes <= 6:
+        raise InputError(f"n_modes = {n_modes!r} is not allowed: give an integer number of modes from 1 to 6")
+    n = int(n_modes)
     phi = np.arange(F) * 2 * np.pi / F
     th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed)
     model = build_model(params, motors=motors)
@@ -178,7 +178,7 @@ def mode_frames(params: Params, n: int = 3, frames: int = 36, points: int = _POI
         peak = np.max([np.linalg.norm(v, axis=-1).max(axis=1) for v in el.values()], axis=0)  # (F,)
         shapes.append({L: 1e3 * (r[L] + (amplitude / peak)[:, None, None] * el[L]) for L in r})
     grid = np.linspace(0.0, 2 * np.pi, 145)
-    curve = frequencies_along_cycle(params, grid, n=n, motors=motors)
+    curve = frequencies_along_cycle(params, grid, n_modes=n, motors=motors)
     return ModeFrames(np.degrees(phi), f, {k: 1e3 * v for k, v in rigid.items()}, shapes,
                       1e3 * amplitude, np.degrees(grid), curve)
 
@@ -324,9 +324,9 @@ def animate_linkage(steady, scale: float | None = None, frames: int = 48, dpi: i
     return Animation(png, interval_ms, f"Linkage over one crank turn, elastic deflection x {data.scale:g}", w, h)
 
 
-def animate_modes(params: Params, n: int = 3, frames: int = 36, dpi: int = 64, interval_ms: int = 120,
+def animate_modes(params: Params, n_modes: int = 3, frames: int = 36, dpi: int = 64, interval_ms: int = 120,
                   motors: bool = True) -> Animation:
-    """The ``n`` lowest mode shapes and their frequencies along one crank turn.
+    """The ``n_modes`` lowest mode shapes and their frequencies along one crank turn.
 
     One panel per mode (the linkage deformed by the mode, normalised, over the rigid linkage
     in grey) and, below, the frequencies along the cycle with the current angle marked;
@@ -336,7 +336,8 @@ def animate_modes(params: Params, n: int = 3, frames: int = 36, dpi: int = 64, i
 
     from .plotting import LINK_COLORS, PALETTE
 
-    data = mode_frames(params, n, frames, motors=motors)
+    data = mode_frames(params, n_modes, frames, motors=motors)
+    n = int(n_modes)
     fig = plt.figure(figsize=(6.5, 4.4), layout="constrained")
     grid = fig.add_gridspec(2, n, height_ratios=[1.3, 1.0])
     axes = [fig.add_subplot(grid[0, k]) for k in range(n)] + [fig.add_subplot(grid[1, :])]

@@ -97,17 +97,17 @@ def figure6_curves(params: Params, steps_per_period: int = FIGURE6_STEPS) -> pd.
     return pd.DataFrame(out)
 
 
-def frequencies_table(params: Params, angles_deg=FREQUENCY_ANGLES_DEG, n: int = 6) -> pd.DataFrame:
-    """The ``n`` lowest natural frequencies (Hz) at crank angles of AB (deg, from its start).
+def frequencies_table(params: Params, angles_deg=FREQUENCY_ANGLES_DEG, n_modes: int = 6) -> pd.DataFrame:
+    """The ``n_modes`` lowest natural frequencies (Hz) at crank angles of AB (deg, from its start).
 
     Columns ``crank angle AB (deg)``, ``theta1 (deg)``, ``theta4 (deg)`` (the absolute crank
-    angles of the default crank laws) and ``f1 (Hz)`` .. ``f<n> (Hz)`` (with the motors).
+    angles of the default crank laws) and ``f1 (Hz)`` .. ``f<n_modes> (Hz)`` (with the motors).
     """
     params = _params(params)
     phi = np.radians(array("angles_deg", angles_deg))
-    n = number("n", n, integer=True, low=1)
+    n = number("n_modes", n_modes, integer=True, low=1)
     th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed)
-    f = frequencies_along_cycle(params, phi, n=n)
+    f = frequencies_along_cycle(params, phi, n_modes=n)
     out = {"crank angle AB (deg)": np.degrees(phi), "theta1 (deg)": np.degrees(th1), "theta4 (deg)": np.degrees(th4)}
     out.update({f"f{k + 1} (Hz)": f[:, k] for k in range(f.shape[1])})
     return pd.DataFrame(out)
@@ -166,7 +166,7 @@ DATASETS: dict[str, Dataset] = {
                 f"fivebar.datasets.figure6_curves(params): steady_state(params, steps_per_period={FIGURE6_STEPS})"),
         Dataset("natural_frequencies", "Six lowest natural frequencies along the cycle (Hz), every degree",
                 "05_modes", frequencies_table,
-                "fivebar.datasets.frequencies_table(params): frequencies_along_cycle(params, 0..360 deg, n=6)"),
+                "fivebar.datasets.frequencies_table(params): frequencies_along_cycle(params, 0..360 deg, n_modes=6)"),
         Dataset("resonance_speeds", "Crank speeds at which the resonance conditions of section 3 hold",
                 "07_excitation", resonance_speeds_table,
                 "fivebar.datasets.resonance_speeds_table(params): resonance_speeds(params)"),

@@ -78,24 +78,24 @@ def modes(
     params: Params,
     theta1: float,
     theta4: float | None = None,
-    n: int | None = 6,
+    n_modes: int | None = 6,
     motors: bool = True,
     elements_per_link: tuple[int, int, int, int] | None = None,
     model: Model | None = None,
 ) -> Modes:
-    """Lowest ``n`` modes at one frozen configuration (crank angles in rad).
+    """Lowest ``n_modes`` modes at one frozen configuration (crank angles in rad).
 
     ``theta1, theta4`` are the five-bar's crank angles; a linkage with one driven crank takes
-    ``theta1`` alone (``modes(params, theta, n=6)``).  ``n=None`` returns all modes.  Pass a prebuilt ``model`` to skip the assembly set-up.
+    ``theta1`` alone (``modes(params, theta, n_modes=6)``).  ``n_modes=None`` returns all modes.  Pass a prebuilt ``model`` to skip the assembly set-up.
     """
     m = _model(params, motors, elements_per_link, model)
-    if n is not None and n > m.n:
+    if n_modes is not None and n_modes > m.n:
         raise InputError(
-            f"n = {n!r} modes is more than the model has: at most {m.n} (its DOFs; refine the mesh "
+            f"n_modes = {n_modes!r} modes is more than the model has: at most {m.n} (its DOFs; refine the mesh "
             "with elements_per_link for more)"
         )
     M, K = m.matrices(*_theta(theta1, theta4))
-    f, V = _eig(M, K, n)
+    f, V = _eig(M, K, n_modes)
     return Modes(f, V, m)
 
 
@@ -103,62 +103,62 @@ def natural_frequencies(
     params: Params,
     theta1: float,
     theta4: float | None = None,
-    n: int = 6,
+    n_modes: int = 6,
     motors: bool = True,
     elements_per_link: tuple[int, int, int, int] | None = None,
 ) -> NDArray:
-    """The ``n`` lowest natural frequencies (Hz) at crank angles ``theta1, theta4`` (rad;
+    """The ``n_modes`` lowest natural frequencies (Hz) at crank angles ``theta1, theta4`` (rad;
     ``theta1`` alone for one driven crank, as :func:`modes`).
 
     ``motors=False`` clamps the crank roots (rigid motor shafts) and leaves the motor
     elements out.  ``elements_per_link`` refines the mesh (default the paper's 1-2-2-1).
     """
-    if isinstance(n, bool) or int(n) != n or n < 1:
-        raise InputError(f"n = {n!r} is not allowed: give a positive integer number of modes")
-    return modes(params, theta1, theta4, int(n), motors, elements_per_link).frequencies
+    if isinstance(n_modes, bool) or int(n_modes) != n_modes or n_modes < 1:
+        raise InputError(f"n_modes = {n_modes!r} is not allowed: give a positive integer number of modes")
+    return modes(params, theta1, theta4, int(n_modes), motors, elements_per_link).frequencies
 
 
 def frequencies_along_cycle(
     params: Params,
     crank_angles: ArrayLike,
-    n: int = 6,
+    n_modes: int = 6,
     motors: bool = True,
     elements_per_link: tuple[int, int, int, int] | None = None,
 ) -> NDArray:
-    """Lowest ``n`` natural frequencies (Hz) at the configurations of the default crank laws.
+    """Lowest ``n_modes`` natural frequencies (Hz) at the configurations of the default crank laws.
 
     ``crank_angles`` are the phase Omega t of the drive (rad; for the five-bar the
     angle of crank AB measured from its initial angle, crank DE following with the speed
-    ratio of the parameters).  Returns shape ``(len(crank_angles), n)``.
+    ratio of the parameters).  Returns shape ``(len(crank_angles), n_modes)``.
     """
     phi = np.atleast_1d(np.asarray(crank_angles, float))
     th = crank_laws(params, phi / params.crank_speed)[0::3]
     m = build_model(params, elements_per_link=elements_per_link, motors=motors)
     M, K = m.matrices(*th)
-    return _eig(M, K, n)[0]
+    return _eig(M, K, n_modes)[0]
 
 
 def mean_frequencies(
     params: Params,
     steps: int | None = None,
-    n: int = 6,
+    n_modes: int = 6,
     motors: bool = True,
     elements_per_link: tuple[int, int, int, int] | None = None,
 ) -> NDArray:
     """The paper's "instantaneous natural frequency mean" (3.3): the period mean (Hz) of the
-    ``n`` lowest instantaneous natural frequencies, mode by mode (sorted by frequency), over
+    ``n_modes`` lowest instantaneous natural frequencies, mode by mode (sorted by frequency), over
     ``steps`` equally spaced instants of one period (default the parameters' S)."""
     S = params.steps_per_period if steps is None else int(steps)
     if S < 1:
         raise InputError(f"steps = {steps!r} is not allowed: give a positive integer")
     phi = np.arange(S) * 2.0 * np.pi / S
-    return frequencies_along_cycle(params, phi, n, motors, elements_per_link).mean(axis=0)
+    return frequencies_along_cycle(params, phi, n_modes, motors, elements_per_link).mean(axis=0)
 
 
 def averaged_matrix_modes(
     params: Params,
     steps: int | None = None,
-    n: int | None = None,
+    n_modes: int | None = None,
     motors: bool = True,
     elements_per_link: tuple[int, int, int, int] | None = None,
     frame: str = "global",
@@ -186,5 +186,5 @@ def averaged_matrix_modes(
         T = m.corotating_transform(*th)
         Tt = np.swapaxes(T, -1, -2)
         M, K = Tt @ M @ T, Tt @ K @ T
-    f, V = _eig(M.mean(axis=0), K.mean(axis=0), n)
+    f, V = _eig(M.mean(axis=0), K.mean(axis=0), n_modes)
     return Modes(f, V, m)
