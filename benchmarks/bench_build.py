@@ -4,11 +4,14 @@ Run from the root of a *fresh clone* (the point is the cold cost)::
 
     git clone -q . /tmp/tc && cd /tmp/tc && python3 benchmarks/bench_build.py > stages.json
 
-Stages, in the order ``make test`` runs them: the virtual environment, the instructor PDF
-(Sphinx LaTeX build, which executes the notebooks into the shared jupyter cache, and XeLaTeX),
-the HTML book, the student edition (its PDF and its HTML), then the test session, split from
-pytest's JUnit report into unit tests, nbval per notebook, the browser test and the
-edition/PDF tests.  Each stage is timed by wall clock; on a shared machine the absolute
+Stages, in the order ``make test`` runs them: the virtual environment, nbval over every
+notebook (strict: it executes every cell), the execution cache seeded from the stored outputs,
+the instructor PDF (Sphinx LaTeX build and XeLaTeX), the HTML book, the student edition (its
+PDF and its HTML; in ``make test`` the edition tests make it), then the test session of
+``tests/``; the two pytest sessions are split from pytest's JUnit report into unit tests, nbval
+per notebook, the browser test and the edition/PDF tests.  ``--old-order`` times the order
+before the cache was seeded (builds first, executing every notebook, then one pytest session
+over ``tests`` and ``book``).  Each stage is timed by wall clock; on a shared machine the absolute
 numbers are noisy, the shares are the useful part.  ``--tests-only`` skips the build stages
 (they must have been run), ``--pytest-args`` passes extra arguments (e.g. ``-n 2``).
 """
@@ -63,29 +66,50 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--tests-only", action="store_true")
     parser.add_argument("--pytest-args", default="")
+    parser.add_argument("--old-order", action="store_true")
     args = parser.parse_args(argv)
     logs = ROOT / "_build" / "bench"
     logs.mkdir(parents=True, exist_ok=True)
     stages: dict[str, float] = {}
     py = str(ROOT / ".venv" / "bin" / "python")
     t_all = time.perf_counter()
+    nbval = ["--nbval", "--nbval-current-env", "--nbval-sanitize-with",
+             "tests/nbval_sanitize.cfg"]
+    junits = []
+
+    def pytest(name: str, paths: list[str]) -> int:
+        junit = Path(tempfile.mkdtemp()) / "junit.xml"
+        junits.append(junit)
+        cmd = [py, "-m", "pytest", "-p", "no:cacheprovider", *paths, "-q", "--durations=30",
+               f"--junitxml={junit}", *shlex.split(args.pytest_args)]
+        t0 = time.perf_counter()
+        with (logs / f"{name}.log").open("w") as fh:
+            rc = subprocess.run(cmd, cwd=ROOT, stdout=fh, stderr=subprocess.STDOUT).returncode
+        stages[f"{name} (wall)"] = time.perf_counter() - t0
+        return rc
+
+    rc = 0
     if not args.tests_only:
         stages["venv"] = _run(["make", "venv"], logs / "venv.log")
+        if not args.old_order:
+            rc |= pytest("pytest nbval", ["book", *nbval])
+            stages["seed cache"] = _run([py, "book/_ext/fivebar_build.py", "seed-cache"],
+                                        logs / "seed.log")
         stages["PDF instructor"] = _run(["make", "pdf"], logs / "pdf.log")
         stages["HTML book"] = _run(["make", "book"], logs / "book.log")
         stages["PDF student"] = _run(["make", "pdf", "EDITION=student"], logs / "pdf-student.log")
         stages["student HTML"] = _run([py, "book/_ext/fivebar_build.py", "student"],
                                       logs / "student.log")
-    junit = Path(tempfile.mkdtemp()) / "junit.xml"
-    cmd = [py, "-m", "pytest", "-p", "no:cacheprovider", "tests", "book", "--nbval",
-           "--nbval-current-env", "--nbval-sanitize-with", "tests/nbval_sanitize.cfg", "-q",
-           "--durations=30", f"--junitxml={junit}", *shlex.split(args.pytest_args)]
-    env_t0 = time.perf_counter()
-    with (logs / "pytest.log").open("w") as fh:
-        rc = subprocess.run(cmd, cwd=ROOT, stdout=fh, stderr=subprocess.STDOUT).returncode
-    stages["test session (wall)"] = time.perf_counter() - env_t0
+    if args.old_order:
+        rc |= pytest("pytest tests+nbval", ["tests", "book", *nbval])
+    else:
+        rc |= pytest("pytest tests", ["tests"])
     total = time.perf_counter() - t_all
-    split = _split(junit) if junit.is_file() else {}
+    split: dict[str, float] = collections.defaultdict(float)
+    for junit in junits:
+        if junit.is_file():
+            for k, v in _split(junit).items():
+                split[k] += v
     print(json.dumps({"stages_s": {k: round(v, 1) for k, v in stages.items()},
                       "test_session_split_s (summed item times)":
                           {k: round(v, 1) for k, v in sorted(split.items())},
