@@ -14,19 +14,28 @@ export PYDEVD_DISABLE_FILE_VALIDATION := 1
 
 venv: $(STAMP)
 
+# --no-compile: pip does not byte-compile every installed module (most are never imported);
+# Python compiles a module on its first import.
 $(STAMP): requirements-lock.txt pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -r requirements-lock.txt
+	$(BIN)/python -m pip install --quiet --no-compile -r requirements-lock.txt
 	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
-## make test: the book (built first: warnings are errors), library unit tests, nbval (strict)
-## over every notebook in book/, and the browser test of the built book (tests/test_browser.py);
-## the PDF is typeset first (when TeX is there) so that the book links it (tests/test_pdf.py)
-test: venv pdf-if-tex book
-	$(BIN)/python -m pytest -p no:cacheprovider tests book --nbval --nbval-current-env \
-	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
+## make test: nbval (strict) over every notebook in book/ first (it re-executes every cell: the
+## reproducibility check), then the PDF (when TeX is there, so that the book links it), the
+## book (warnings are errors), and the library's unit tests, the PDF and edition tests (the
+## student edition) and the browser test of the built book (tests/).  Once nbval has found
+## every stored output reproduced, the execution cache is seeded with the stored outputs
+## (fivebar_build.py seed-cache), so the builds do not execute every notebook a second time.
+## A notebook that does not reproduce stops `make test` there (the book would show it).
+test: venv
+	$(MAKE) --no-print-directory test-notebooks
+	$(BIN)/python book/_ext/fivebar_build.py seed-cache
+	$(MAKE) --no-print-directory pdf-if-tex
+	$(MAKE) --no-print-directory book
+	$(BIN)/python -m pytest -p no:cacheprovider tests -q --durations=15
 
 ## make test-unit: only the library's unit tests (no book, no browser)
 test-unit: venv

@@ -370,6 +370,40 @@ def build_pdf(edition: str = "instructor", force: bool = False) -> Path:
 
 
 # --------------------------------------------------------------------------------------------
+# The execution cache seeded from the stored outputs (``make test``, after nbval)
+# --------------------------------------------------------------------------------------------
+
+
+def seed_cache(cache_path: Path = CACHE) -> list[str]:
+    """Put every notebook of ``book/`` with its *stored* outputs into the execution cache.
+
+    Only for ``make test``, which runs it right after nbval (strict, every cell, no
+    ``nbval-skip``) has re-executed every notebook and found its stored outputs reproduced:
+    the stored outputs are then the executed outputs (up to ``tests/nbval_sanitize.cfg``), so
+    the book builds that follow (the PDFs, the HTML book, the student edition) read them from
+    the cache instead of executing every notebook a second time.  nbval's run has also
+    written the files that running a notebook writes (``book/_generated/anim``).  A
+    notebook already in the cache (same code cells) is left as it is; one edited later no
+    longer matches its entry and ``make book`` executes it.  Returns the notebooks added.
+    """
+    import nbformat
+    from jupyter_cache import get_cache
+
+    cache = get_cache(str(cache_path))
+    added = []
+    for nb_path in sorted((ROOT / "book").glob("*.ipynb")):
+        nb = nbformat.read(nb_path, as_version=4)
+        try:
+            cache.match_cache_notebook(nb)
+            continue
+        except KeyError:
+            pass
+        cache.cache_notebook_file(str(nb_path), check_validity=False, overwrite=True)
+        added.append(nb_path.relative_to(ROOT).as_posix())
+    return added
+
+
+# --------------------------------------------------------------------------------------------
 # Sphinx extension: the {fivebar-pdf} role
 # --------------------------------------------------------------------------------------------
 
@@ -438,14 +472,18 @@ def setup(app):
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("target", choices=("student", "pdf"))
+    parser.add_argument("target", choices=("student", "pdf", "seed-cache"))
     parser.add_argument("--edition", default="instructor", choices=EDITIONS,
                         help="edition printed by `pdf` (default: instructor)")
     parser.add_argument("--force", action="store_true",
                         help="`pdf`: rebuild even if the PDF is newer than every source")
     args = parser.parse_args(argv)
     os.chdir(ROOT)
-    if args.target == "student":
+    if args.target == "seed-cache":
+        added = seed_cache()
+        print(f"[fivebar_build] execution cache seeded from the stored outputs of "
+              f"{len(added)} notebooks (nbval has just reproduced them)")
+    elif args.target == "student":
         print(f"[fivebar_build] student edition in {build_student().relative_to(ROOT)}")
     else:
         build_pdf(args.edition, force=args.force)
