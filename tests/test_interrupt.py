@@ -48,6 +48,9 @@ SWEEP = PRELUDE + textwrap.dedent("""
     def _count_points():  # in each worker: every point computed appends a line to the log
         real = sw.sweep_point
         def counted(*a, **k):
+            # a floor on the cost of a point, so that the 38 left at the signal cannot all finish
+            # before it arrives on a loaded machine (a point itself can take a few ms)
+            time.sleep(0.2)
             out = real(*a, **k)
             with open(log, "a") as fh:
                 fh.write("point\\n")
