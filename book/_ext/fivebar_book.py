@@ -244,7 +244,7 @@ def _errata_rows(df: Any, fmt: Any, inline: Any) -> tuple[list[str], list[list[n
         for label, plain, tex in (("Printed:", "printed", "printed (math)"),
                                   ("Read as:", "read as", "read as (math)")):
             if r.get(tex):  # the formula typeset; the ASCII record stays in data/errata.toml
-                text += _labelled(label, *inline(r[tex]))
+                text += _labelled(label, *inline.link(r[tex]))
             else:
                 text += _labelled(label, nodes.literal(text=fmt(r[plain])))
         why = nodes.container()
