@@ -633,3 +633,49 @@ def test_erratum_mentions_in_docstrings_become_links():
     assert lines == ["Corrected (errata :ref:`E1 <erratum-e1>`, :ref:`E26 <erratum-e26>`); "
                      "not ``E3`` or :math:`E_3`.", ".. math::", "", "    E1 = 0", "",
                      "E99 is not an erratum."]
+
+
+# --------------------------------------------------------------------------------------------
+# Figures: numbered, captioned, described
+# --------------------------------------------------------------------------------------------
+
+_HASHLIKE = re.compile(r"^[0-9a-f]{16,}(\.\w+)?$|\.(png|jpe?g|svg)$", re.I)
+
+
+def _figure_problems(page: Path) -> list[str]:
+    """Every image of a chapter's text must be a numbered figure with a caption and an alt text
+    that describes it (not a file name or hash); one string per problem."""
+    from bs4 import BeautifulSoup
+
+    soup = BeautifulSoup(page.read_text(encoding="utf-8"), "html.parser")
+    main = soup.find("article") or soup
+    problems = []
+    for k, img in enumerate(main.find_all("img"), 1):
+        where = f"{page.name}, image {k}"
+        alt = (img.get("alt") or "").strip()
+        if not alt or _HASHLIKE.search(alt) or len(alt.split()) < 3:
+            problems.append(f"{where}: alt text {alt!r} does not describe the figure")
+        figure = img.find_parent("figure")
+        caption = figure.find("figcaption") if figure else None
+        if caption is None:
+            problems.append(f"{where} ({alt[:40]!r}): not in a figure with a caption")
+            continue
+        if caption.find(class_="caption-number") is None:
+            problems.append(f"{where} ({alt[:40]!r}): the caption has no figure number")
+        text = caption.get_text(" ", strip=True)
+        if len(text.split()) < 5:
+            problems.append(f"{where}: caption {text!r} does not say what is plotted")
+    for k, p in enumerate(main.find_all("p"), 1):
+        t = p.get_text(" ", strip=True)
+        if re.search(r"\bthe (figure|plot) (above|below)\b", t, re.I):
+            problems.append(f"{page.name}: paragraph {k} refers to 'the figure above/below' "
+                            "instead of the figure's number")
+    return problems
+
+
+def test_every_figure_is_numbered_captioned_and_described(book):
+    """A chapter image without a figure number, a caption or an alt text that describes it
+    (a file hash is not one), or a reference to "the figure above", fails."""
+    pages = [book / p.relative_to(ROOT).with_suffix(".html") for p in _chapter_notebooks()]
+    problems = [msg for page in pages if page.is_file() for msg in _figure_problems(page)]
+    assert not problems, f"{len(problems)} figure problems:\n" + "\n".join(problems)

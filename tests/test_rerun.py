@@ -2,8 +2,8 @@
 reader's parameter file gets the file injected after its parameters cell and computes with it;
 a cell error or a failed physics check makes the command fail and names chapter and cell.
 
-The chapters are tested on a copy of chapter 01 with a parameters cell added (the copy lives in
-a temporary directory; the book's notebooks are not touched).  Each run starts a kernel: tens
+The chapters are tested on a copy of chapter 01 with a last cell added (the copy lives in a
+temporary directory; the book's notebooks are not touched).  Each run starts a kernel: tens
 of seconds.
 """
 
@@ -28,15 +28,12 @@ def _code(source: str, tags: list[str] | None = None) -> dict:
 
 
 def _chapter_copy(tmp_path: Path, extra: str = "") -> Path:
-    """Chapter 01 with a parameters cell (PARAMS_FILES = []) and its parameters from
-    fivebar.chapter.load; ``extra`` is appended as a last code cell."""
+    """Chapter 01 (its parameters cell, PARAMS_FILES = [], and its parameters from
+    fivebar.chapter.load); ``extra`` is appended as a last code cell."""
     nb = json.loads((ROOT / "book" / "01_mechanism.ipynb").read_text())
-    first = next(i for i, c in enumerate(nb["cells"]) if c["cell_type"] == "code")
-    src = "".join(nb["cells"][first]["source"])
-    assert "params = fivebar.load_params()" in src
-    nb["cells"][first]["source"] = src.replace("params = fivebar.load_params()",
-                                               "params = fivebar.chapter.load(PARAMS_FILES)")
-    nb["cells"].insert(first, _code("PARAMS_FILES = []", ["parameters"]))
+    tagged = [c for c in nb["cells"] if "parameters" in c["metadata"].get("tags", [])]
+    assert len(tagged) == 1 and "PARAMS_FILES = []" in "".join(tagged[0]["source"])
+    assert any("fivebar.chapter.load(PARAMS_FILES)" in "".join(c["source"]) for c in nb["cells"])
     nb["cells"].append(_code("print('damping ratio used:', params.damping_ratio)\n" + extra))
     path = tmp_path / "01_mechanism.ipynb"
     path.write_text(json.dumps(nb))

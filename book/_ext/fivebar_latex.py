@@ -177,6 +177,15 @@ def _preamble(app: Sphinx, config: Any) -> None:
   BoldItalicFont=*BoldItalic, Ligatures=TeX]
 % index entries are terms, not code: in the text face (Sphinx sets them in typewriter)
 \renewcommand{\sphinxstyleindexentry}[1]{#1}
+% figures and tables numbered within their chapter, "Fig. 7.2" as in the HTML book (Sphinx
+% resets them per chapter but prints the bare number when the book has parts); no chapter
+% number in the unnumbered front matter
+% (at the beginning of the document: sphinx.sty sets them there, after the preamble)
+\makeatletter
+\AtBeginDocument{\counterwithin*{figure}{chapter}\counterwithin*{table}{chapter}%
+  \renewcommand{\thefigure}{\ifnum\value{chapter}>\z@\thechapter.\fi\arabic{figure}}%
+  \renewcommand{\thetable}{\ifnum\value{chapter}>\z@\thechapter.\fi\arabic{table}}}
+\makeatother
 % the bibliography is the chapter "References"
 \addto\captionsenglish{\renewcommand{\bibname}{References}}
 % running heads: the chapter on the left, the page number on the right (a section title
