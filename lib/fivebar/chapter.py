@@ -23,14 +23,13 @@ No equation of the paper is implemented here.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .errors import FivebarError, InputError
+from .errors import FivebarError, InputError, number
 from .params import DEFAULT_PARAMS_PATH, Params, load_params
 
 __all__ = ["CheckFailed", "book_value_check", "differences", "is_book_params", "load", "physics_check"]
@@ -128,10 +127,7 @@ def book_value_check(params: Params, quantity: str, value: Any, stored: Any, rto
     CheckFailed
         With the book's parameters and a value away from the stored one.
     """
-    if not (isinstance(rtol, (int, float)) and rtol >= 0 and math.isfinite(rtol)):
-        raise InputError(f"rtol = {rtol!r} is not allowed: give a finite number >= 0")
-    if not (isinstance(atol, (int, float)) and atol >= 0 and math.isfinite(atol)):
-        raise InputError(f"atol = {atol!r} is not allowed: give a finite number >= 0")
+    rtol, atol = number("rtol", rtol, low=0), number("atol", atol, low=0)
     diff = differences(params, reference)
     if diff:
         keys = ", ".join(diff) if len(diff) <= 4 else ", ".join(list(diff)[:4]) + f" and {len(diff) - 4} more"
