@@ -136,6 +136,29 @@ def test_table_hides_the_index_and_rounds_to_significant_digits():
         table(df, digits=0)
 
 
+def test_a_named_table_is_a_numbered_myst_table():
+    """With name= the table is a MyST {table} directive (numbered by the book in HTML and PDF
+    alike), rounded as digits says, with '|' escaped so a cell cannot split a row."""
+    import numpy as np
+    import pandas as pd
+
+    from fivebar.reporting import table
+
+    df = pd.DataFrame({"case": ["a|b", "c"], "p-p (um)": [24.8941234, np.nan], "n": [3, 4]})
+    md = table(df, caption="Peak-to-peak at 60 r/min.", name="tab-07-pp").data
+    lines = md.splitlines()
+    assert lines[0] == "```{table} Peak-to-peak at 60 r/min." and lines[1] == ":name: tab-07-pp"
+    assert lines[3] == "| case | p-p (um) | n |" and lines[-1] == "```"
+    assert "| a\\|b | 24.89 | 3 |" in lines and "| c | – | 4 |" in lines
+    assert "| a\\|b | 24.894 | 3 |" in table(df, digits={"p-p (um)": 3}, caption="c.", name="tab-07-pp").data
+    with pytest.raises(ReportError, match="name = 'table1' is not allowed"):
+        table(df, caption="c.", name="table1")
+    with pytest.raises(ReportError, match="caption = None is not allowed"):
+        table(df, name="tab-07-pp")
+    with pytest.raises(ReportError, match="'q'"):
+        table(df, digits={"q": 2}, caption="c.", name="tab-07-pp")
+
+
 _ASCII_MATH = re.compile(r"[A-Za-z]_[A-Za-z0-9{]|\^\d|\bsqrt\(|\b(?:mu0|delta0|sigma|omega|varsigma|vartheta|gamma\d|"
                          r"psi\d|nu\d|phi|rho|Lambda|int)\b|<=|>=|\+-")
 

@@ -222,39 +222,67 @@ def format_value(value: Any) -> str:
     return str(value)
 
 
-def table(df: pd.DataFrame, digits: int = 4, caption: str | None = None) -> Any:
-    """A table for the book: no index column, numbers to ``digits`` significant digits.
+def table(df: pd.DataFrame, digits: int | dict[str, int] = 4, caption: str | None = None,
+          name: str | None = None) -> Any:
+    """A table for the book: no index column, numbers rounded as ``digits`` says.
 
-    ``table(df)`` as the last line of a cell shows ``df`` without its index (name the rows in
-    a column instead, with the unit in every numeric header, e.g. ``"L2 p-p (um)"``).
-    The HTML is the same on every run (the style's id is derived from the content), so a
-    strictly compared notebook reproduces it.
+    ``table(df, caption=..., name="tab-07-offsets")`` as the last line of a cell is a numbered
+    table ("Table 7.1" in the HTML and the PDF alike) that ``{numref}`` can point to: a MyST
+    ``{table}`` directive the book renders as Markdown (``nb_render_markdown_format: myst``).
+    Without ``name`` it is a pandas ``Styler`` (for pages that are not chapters).  Name the rows
+    in a column, with the unit in every numeric header, e.g. ``"L2 p-p (um)"``.  The output is
+    the same on every run, so a strictly compared notebook reproduces it.
 
     Parameters
     ----------
     df
         The table.  A non-default index is kept as the first column(s).
     digits
-        Significant digits of floating-point numbers (1 to 15); integers are shown whole.
+        Significant digits of floating-point numbers (1 to 15; integers are shown whole), or a
+        mapping from column name to decimal places (columns not named: 4 significant digits).
+        A mapping needs ``name``.
     caption
-        Optional caption above the table.
+        The caption: what is tabulated, for which parameters.  Required with ``name``.
+    name
+        The table's label for ``{numref}``: ``tab-`` then the chapter's two digits, a dash and
+        a word (``tab-07-offsets``).
 
     Returns
     -------
-    pandas.io.formats.style.Styler
+    IPython.display.Markdown (with ``name``) or pandas.io.formats.style.Styler
 
     Raises
     ------
     ReportError
-        If ``digits`` is not an integer from 1 to 15.
+        If ``digits`` is not an integer from 1 to 15 (or a mapping of column names to
+        integers from 0 to 15), if ``name`` is not of the form ``tab-NN-word``, or if
+        ``name`` is given without a caption.
     """
     import hashlib
+    import re
 
-    if isinstance(digits, bool) or not isinstance(digits, int) or not 1 <= digits <= 15:
+    def _places(v, lo):
+        return not isinstance(v, bool) and isinstance(v, int) and lo <= v <= 15
+
+    if isinstance(digits, dict):
+        bad = {k: v for k, v in digits.items() if k not in df.columns or not _places(v, 0)}
+        if bad or name is None:
+            raise ReportError(f"digits = {digits!r} is not allowed: a mapping needs name= and maps "
+                              f"the table's columns {list(map(str, df.columns))} to integers from 0 to 15"
+                              + (f" ({bad!r} do not)" if bad else ""))
+    elif not _places(digits, 1):
         raise ReportError(f"digits = {digits!r} is not allowed: give an integer from 1 to 15")
     default_index = df.index.equals(pd.RangeIndex(len(df))) and all(n is None for n in df.index.names)
     if not default_index:
         df = df.reset_index()
+    if name is not None:
+        if not isinstance(name, str) or not re.fullmatch(r"tab-\d\d-[a-z0-9][a-z0-9-]*", name):
+            raise ReportError(f"name = {name!r} is not allowed: give tab-NN-word, NN the chapter's "
+                              "two digits (e.g. 'tab-07-offsets')")
+        if not caption or not str(caption).strip():
+            raise ReportError(f"caption = {caption!r} is not allowed: a numbered table needs a caption "
+                              "that says what is tabulated")
+        return _myst_table(df, digits, str(caption), name)
     floats = [c for c in df.columns if pd.api.types.is_float_dtype(df[c])]
     styler = df.style.hide(axis="index").format({c: f"{{:.{digits}g}}" for c in floats}, na_rep="–")
     if caption:
@@ -262,3 +290,28 @@ def table(df: pd.DataFrame, digits: int = 4, caption: str | None = None) -> Any:
     digest = hashlib.sha1(pd.util.hash_pandas_object(df, index=False).values.tobytes()
                           + repr(list(df.columns)).encode()).hexdigest()[:10]
     return styler.set_uuid(f"fivebar{digest}")
+
+
+def _myst_table(df: pd.DataFrame, digits: int | dict[str, int], caption: str, name: str) -> Any:
+    """The numbered MyST table of :func:`table` (a ``{table}`` directive around a pipe table)."""
+    from IPython.display import Markdown
+
+    def cell(col, v) -> str:
+        if isinstance(v, (float,)) or (hasattr(v, "dtype") and getattr(v.dtype, "kind", "") == "f"):
+            v = float(v)
+            if not math.isfinite(v):
+                return "–"
+            if isinstance(digits, dict):
+                return f"{v:.{digits[col]}f}" if col in digits else f"{v:.4g}"
+            return f"{v:.{digits}g}"
+        if hasattr(v, "item") and not isinstance(v, str):
+            v = v.item()
+        if v is None or (isinstance(v, float) and math.isnan(v)):
+            return "–"
+        return str(v).replace("|", "\\|").replace("\n", " ")
+
+    head = [str(c).replace("|", "\\|") for c in df.columns]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(cell(c, v) for c, v in zip(df.columns, row)) + " |"
+              for row in df.itertuples(index=False)]
+    return Markdown(f"```{{table}} {caption}\n:name: {name}\n\n" + "\n".join(lines) + "\n```")
