@@ -30,19 +30,22 @@ $(STAMP): requirements-lock.txt pyproject.toml
 ## every stored output reproduced, the execution cache is seeded with the stored outputs
 ## (fivebar_build.py seed-cache), so the builds do not execute every notebook a second time.
 ## A notebook that does not reproduce stops `make test` there (the book would show it).
+## TEST_JOBS: worker processes of nbval and tests/ (pytest-xdist; a notebook, and a test file,
+## stays on one worker, in order).  The book's machine has 2 cores; TEST_JOBS=0 runs in-process.
+TEST_JOBS ?= 2
 test: venv
 	$(MAKE) --no-print-directory test-notebooks
 	$(BIN)/python book/_ext/fivebar_build.py seed-cache
 	$(MAKE) --no-print-directory pdf-if-tex
 	$(MAKE) --no-print-directory book
-	$(BIN)/python -m pytest -p no:cacheprovider tests -q --durations=15
+	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q --durations=15
 
 ## make test-unit: only the library's unit tests (no book, no browser)
 test-unit: venv
 	$(BIN)/python -m pytest -p no:cacheprovider tests -q --ignore=tests/test_browser.py
 
 test-notebooks: venv
-	$(BIN)/python -m pytest -p no:cacheprovider book --nbval --nbval-current-env \
+	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadscope book --nbval --nbval-current-env \
 	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
 
 ## make book: the rendered HTML book in _build/html.  Sphinx warnings are errors (-W -n,
