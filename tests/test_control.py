@@ -13,7 +13,7 @@ from crank_laws import general_laws as _general_laws
 from fivebar import FivebarError, load_params, natural_frequencies
 from fivebar.control_design import Servo, damping_lqr, pd_servo, schedule
 from fivebar.control_model import control_modal_model, linear_model, models_along_cycle
-from fivebar.control_simulation import CycleSimulation, simulate_cycle
+from fivebar.control_simulation import CycleSimulation, closed_loop_multipliers, simulate_cycle
 from fivebar.free_rotors import DEFAULT_OUTPUTS, FlexibleLinkage, elastic_frequencies, feedforward, rigid_inertia
 from fivebar.elements import motor_element
 from fivebar.kinematics import crank_laws
@@ -277,6 +277,63 @@ def test_simulation_steady_state_and_reference():
     assert np.abs(e2 - e1).max() < 1e-3 * np.abs(e1).max()  # without the reference: 0.5
     assert abs(sim2.peak_to_peak("L2") / sim.peak_to_peak("L2") - 1) < 1e-5
     assert isinstance(sim2, CycleSimulation) and sim2.settling_time("L3") >= 0.0
+
+
+@pytest.mark.parametrize("bandwidth", [0.78, 1.5])
+def test_closed_loop_multipliers_are_the_decay_of_the_march(bandwidth):
+    """The largest Floquet multiplier is the growth per period of the homogeneous solution:
+    the difference of two runs from different starts (same forcing) marched by simulate_cycle.
+    At 120 r/min a PD servo of 0.78 Hz gives about 5.8 (unstable), one of 1.5 Hz about 0.26."""
+    q = P.replace(crank_speed_rpm=120.0)
+    S = 250
+    servo = pd_servo(q, bandwidth)
+    rho = abs(closed_loop_multipliers(q, servo, steps_per_period=S)[0])
+    a = simulate_cycle(q, servo, start="rest", periods=8, steps_per_period=S)
+    b = simulate_cycle(q, servo, start="quasi-static", periods=8, steps_per_period=S)
+    d = np.abs(a.p - b.p).max(axis=1)
+    growth = d[-S - 1:].max() / d[-2 * S - 1:-S].max()
+    assert abs(growth / rho - 1) < 0.05
+    assert (rho > 1) == (bandwidth < 1.0)
+
+
+@pytest.mark.xfail(strict=True, reason="simulate_cycle leaves out the velocity terms of the deviation: on the rigid "
+                   "modes p = Phi_r(t) eta its M_p(t) p'' adds 2 Phi_r^T M Phi_r' eta' + Phi_r^T M Phi_r'' eta, of "
+                   "order Omega^2 J, which a servo with a bandwidth below the crank frequency does not dominate")
+def test_slow_servo_rigid_stability_matches_the_lagrange_dynamics():
+    """A second method for the rigid part: the nonlinear rigid Lagrange dynamics (fivebar.rigid)
+    under the same feedforward and PD servo, marched by scipy; a perturbation of the crank
+    angle decays by about 0.2 per period at 120 r/min with a 0.78 Hz servo.  The linear
+    time-varying model of simulate_cycle gives a multiplier near 6 there (the known limit of
+    the model, said in chapter 10), so this test fails and is marked as expected to fail."""
+    from scipy.integrate import solve_ivp
+
+    from fivebar.rigid import forward_dynamics
+
+    q = P.replace(crank_speed_rpm=120.0)
+    servo = pd_servo(q, 0.78)
+    kp, kd, J, T = np.array(servo.kp), np.array(servo.kd), rigid_inertia(q), q.period
+
+    def rhs(t, x):
+        law = crank_laws(q, t)
+        e = np.array([x[0] - law[0], x[2] - law[3]])
+        ed = np.array([x[1] - law[1], x[3] - law[4]])
+        tau = feedforward(q, t) - kp * e - kd * ed
+        return [x[1], *forward_dynamics(q, x[0], x[2], x[1], x[3], tau[0], tau[1], inertia=J)[:1], x[3],
+                *forward_dynamics(q, x[0], x[2], x[1], x[3], tau[0], tau[1], inertia=J)[1:]]
+
+    law0 = crank_laws(q, 0.0)
+    sol = solve_ivp(rhs, (0, 6 * T), [law0[0] + 1e-5, law0[1], law0[3], law0[4]], rtol=1e-10, atol=1e-14,
+                    dense_output=True, max_step=T / 100)
+
+    def err(k):
+        tt = np.linspace(k * T, (k + 1) * T, 101)
+        X, law = sol.sol(tt), crank_laws(q, tt)
+        return max(np.abs(X[0] - law[0]).max(), np.abs(X[2] - law[3]).max())
+
+    rho_lagrange = (err(5) / err(1)) ** 0.25
+    assert rho_lagrange < 0.5  # the reference: stable
+    rho_model = abs(closed_loop_multipliers(q, servo, steps_per_period=250)[0])
+    assert rho_model < 1.0 and abs(rho_model / rho_lagrange - 1) < 0.5
 
 
 def test_bad_inputs_name_the_value():

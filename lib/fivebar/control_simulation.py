@@ -18,7 +18,14 @@ balances the rigid modes exactly), and :math:`\boldsymbol\tau_{fb} = -\mathbf G_
 integrates it with :func:`fivebar.newmark.integrate`.  With the rotors held on the nominal
 motion (an ideal servo) it is exactly the linear prescribed-motion model.
 
-What the model leaves out is listed in :mod:`fivebar.free_rotors`.
+What the model leaves out is listed in :mod:`fivebar.free_rotors`.  :func:`closed_loop_multipliers`
+says whether the loop is stable along the motion.  The left-out velocity terms are of the order
+:math:`\Omega^2 J` on the rigid modes (on :math:`\mathbf p = \boldsymbol\Phi_r(t)\boldsymbol\eta`
+the term :math:`\mathbf M_p\ddot{\mathbf p}` brings :math:`2\boldsymbol\Phi_r^\top\mathbf M_p\dot{\boldsymbol\Phi}_r
+\dot{\boldsymbol\eta} + \boldsymbol\Phi_r^\top\mathbf M_p\ddot{\boldsymbol\Phi}_r\boldsymbol\eta`, which they
+would balance): the model holds for a servo whose bandwidth is well above the crank frequency.
+With a slower servo it can be unstable where the rigid Lagrange dynamics under the same servo are
+stable (tests/test_control.py: 120 r/min, a 0.78 Hz servo, multiplier about 6 against 0.2).
 """
 
 from __future__ import annotations
@@ -35,10 +42,11 @@ from .errors import InputError, InputTypeError
 from .free_rotors import FlexibleLinkage, _count, _positive, feedforward
 from .kinematics import crank_laws
 from .newmark import PeriodicStepData, Scheme, System, integrate
+from .periodic import floquet_multipliers
 from .params import Params
 from .setup import Setup, as_setup
 
-__all__ = ["CycleSimulation", "simulate_cycle"]
+__all__ = ["CycleSimulation", "closed_loop_multipliers", "simulate_cycle"]
 
 
 @dataclass
@@ -134,6 +142,63 @@ def _reference(ref, fl: FlexibleLinkage, params: Params, S: int) -> tuple[NDArra
     return P, V
 
 
+@dataclass
+class _ClosedLoop:
+    """The closed loop along the nominal motion as per-step matrices (one period of S steps)."""
+
+    linkage: FlexibleLinkage
+    params: Params
+    scheme: Scheme
+    steps: int
+    dt: float
+    laws: tuple
+    rigid_modes: NDArray
+    step_data: PeriodicStepData
+    Gp: NDArray
+    Gv: NDArray
+    u_ref: NDArray
+    tau_ff: NDArray
+
+
+def _closed_loop(params, servo, damping, reference, steps_per_period, crank_speed_rpm, scheme) -> _ClosedLoop:
+    setup = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period, scheme=scheme)
+    params = setup.run_params
+    S = _count("steps_per_period", setup.steps_per_period, 2, 10**7)
+    if not isinstance(servo, Servo):
+        raise InputTypeError(f"servo must be a Servo, got {type(servo).__name__}")
+    fl = FlexibleLinkage(params)
+    T = params.period
+    dt = T / S
+    t = np.arange(S) * dt
+    laws = crank_laws(params, t)
+    M, K = fl.matrices(laws[0], laws[3])
+    Phi = fl.rigid_modes(laws[0], laws[3])
+    C = np.empty_like(M)
+    for k in range(S):
+        om, Pe = fl.modes(M[k], K[k], Phi[k])
+        C[k] = fl.damping(M[k], om, Pe)
+    tau_ff = feedforward(params, t)
+    F = -np.einsum("kij,kj->ki", M, fl.rigid_acceleration(*laws)) + tau_ff @ fl.B.T
+    Gs = servo.gains(fl)
+    Gp = np.broadcast_to(Gs[0], (S, 2, fl.n)).copy()
+    Gv = np.broadcast_to(Gs[1], (S, 2, fl.n)).copy()
+    u_ref = np.zeros((S, 2))
+    if damping is not None:
+        G = np.asarray(damping(laws[0] - params.theta1_0), float)
+        if G.shape != (S, 2, 2, fl.n):
+            raise InputError(f"damping(phi) returned shape {G.shape[1:]}: it must be (2, 2, {fl.n})")
+        Gp += G[:, 0]
+        Gv += G[:, 1]
+        if reference is not None:
+            P_ref, V_ref = _reference(reference, fl, params, S)
+            u_ref = np.einsum("kij,kj->ki", G[:, 0], P_ref) + np.einsum("kij,kj->ki", G[:, 1], V_ref)
+            F = F + u_ref @ fl.B.T
+    Kc = K + fl.B @ Gp
+    Cc = C + fl.B @ Gv
+    sd = PeriodicStepData(M, Cc, Kc, F, t0=0.0, period=T)
+    return _ClosedLoop(fl, params, setup.scheme, S, dt, laws, Phi, sd, Gp, Gv, u_ref, tau_ff)
+
+
 def simulate_cycle(
     params: Params | Setup,
     servo: Servo,
@@ -187,53 +252,58 @@ def simulate_cycle(
     scheme
         Time integrator; ``None`` takes the set-up's.
     """
-    setup = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period, scheme=scheme)
-    params = setup.run_params
-    periods = _count("periods", periods, 1, 10**6)
-    S = _count("steps_per_period", setup.steps_per_period, 2, 10**7)
     if start not in ("quasi-static", "rest"):
         raise InputError(f"start = {start!r} is not allowed: use 'quasi-static' or 'rest'")
-    if not isinstance(servo, Servo):
-        raise InputTypeError(f"servo must be a Servo, got {type(servo).__name__}")
-    fl = FlexibleLinkage(params)
-    T = params.period
-    dt = T / S
-    t = np.arange(S) * dt
-    laws = crank_laws(params, t)
-    M, K = fl.matrices(laws[0], laws[3])
-    Phi = fl.rigid_modes(laws[0], laws[3])
-    C = np.empty_like(M)
-    for k in range(S):
-        om, Pe = fl.modes(M[k], K[k], Phi[k])
-        C[k] = fl.damping(M[k], om, Pe)
-    tau_ff = feedforward(params, t)
-    F = -np.einsum("kij,kj->ki", M, fl.rigid_acceleration(*laws)) + tau_ff @ fl.B.T
-    Gs = servo.gains(fl)
-    Gp = np.broadcast_to(Gs[0], (S, 2, fl.n)).copy()
-    Gv = np.broadcast_to(Gs[1], (S, 2, fl.n)).copy()
-    u_ref = np.zeros((S, 2))
-    if damping is not None:
-        G = np.asarray(damping(laws[0] - params.theta1_0), float)
-        if G.shape != (S, 2, 2, fl.n):
-            raise InputError(f"damping(phi) returned shape {G.shape[1:]}: it must be (2, 2, {fl.n})")
-        Gp += G[:, 0]
-        Gv += G[:, 1]
-        if reference is not None:
-            P_ref, V_ref = _reference(reference, fl, params, S)
-            u_ref = np.einsum("kij,kj->ki", G[:, 0], P_ref) + np.einsum("kij,kj->ki", G[:, 1], V_ref)
-            F = F + u_ref @ fl.B.T
-    Kc = K + fl.B @ Gp
-    Cc = C + fl.B @ Gv
-    sd = PeriodicStepData(M, Cc, Kc, F, t0=0.0, period=T)
+    periods = _count("periods", periods, 1, 10**6)
+    cl = _closed_loop(params, servo, damping, reference, steps_per_period, crank_speed_rpm, scheme)
+    fl, S, dt, sd, Kc, F = cl.linkage, cl.steps, cl.dt, cl.step_data, cl.step_data.K, cl.step_data.F
+    Cc, M, Gp, Gv, u_ref = cl.step_data.C, cl.step_data.M, cl.Gp, cl.Gv, cl.u_ref
     if start == "rest":
         u0 = np.zeros(fl.n)
         v0 = np.zeros(fl.n)
     else:
         qs = [np.linalg.solve(Kc[k], F[k]) for k in (S - 1, 0, 1)]
         u0, v0 = qs[1], (qs[2] - qs[0]) / (2 * dt)
-    res = integrate(System(M[0], Cc[0], Kc[0]), u0, v0, 0.0, dt, periods * S, setup.scheme, step_data=sd)
+    res = integrate(System(M[0], Cc[0], Kc[0]), u0, v0, 0.0, dt, periods * S, cl.scheme, step_data=sd)
     k = np.arange(len(res.t)) % S
-    W = fl.elastic_midpoint_rows(laws[0], laws[3], Phi)  # (S, 2, n)
+    W = fl.elastic_midpoint_rows(cl.laws[0], cl.laws[3], cl.rigid_modes)  # (S, 2, n)
     w = np.einsum("kij,kj->ki", W[k], res.u)
     fb = -np.einsum("kij,kj->ki", Gp[k], res.u) - np.einsum("kij,kj->ki", Gv[k], res.v) + u_ref[k]
-    return CycleSimulation(res.t, res.u, res.v, w, res.u[:, list(fl.rotor)], tau_ff[k] + fb, S, periods)
+    return CycleSimulation(res.t, res.u, res.v, w, res.u[:, list(fl.rotor)], cl.tau_ff[k] + fb, S, periods)
+
+
+def closed_loop_multipliers(
+    params: Params | Setup,
+    servo: Servo,
+    damping: Callable[[ArrayLike], NDArray] | None = None,
+    *,
+    steps_per_period: int | None = None,
+    crank_speed_rpm: float | None = None,
+    scheme: Scheme | None = None,
+) -> NDArray[np.complex128]:
+    """Floquet multipliers of the closed loop of :func:`simulate_cycle` over one period.
+
+    ``mu = closed_loop_multipliers(params, servo, damper)``; the loop is stable along the
+    motion (every start transient decays, and the simulation reaches its periodic steady
+    state) if and only if ``abs(mu).max() < 1``.  The frozen-time designs say nothing about
+    this: a time-varying plant can be unstable although every frozen closed loop is stable.
+
+    The multipliers are the eigenvalues of the monodromy matrix of the discrete map that
+    :func:`simulate_cycle` iterates (the product of the integrator's step Jacobians, exact
+    for the linear time-varying system; the state is (p, p') for Newmark and (p, p', p'')
+    for the alpha schemes, whose extra multipliers are the scheme's numerical damping).  They
+    converge to those of the differential equation as the step is refined.  The forcing and
+    the reference do not change them.  Arguments as for :func:`simulate_cycle`.
+
+    Returns
+    -------
+    ndarray of complex
+        The multipliers, largest modulus first.  The decay per period of the slowest
+        transient is their largest modulus; a start transient falls by ``1e-3`` in about
+        ``log(1e-3) / log(max |mu|)`` periods.
+    """
+    cl = _closed_loop(params, servo, damping, None, steps_per_period, crank_speed_rpm, scheme)
+    sd, n = cl.step_data, cl.linkage.n
+    res = integrate(System(sd.M[0], sd.C[0], sd.K[0]), np.zeros(n), np.zeros(n), 0.0, cl.dt, cl.steps, cl.scheme,
+                    step_data=sd, sensitivity=True, store="last")
+    return floquet_multipliers(res.monodromy)
