@@ -99,8 +99,22 @@ class StoredTable:
         return [" ".join(t for k, t in r if k == "th") for r in self.body]
 
 
+def _myst_tables(markdown: str) -> list[dict]:
+    """The pipe tables of the numbered MyST tables (``{table}`` directives, as
+    ``fivebar.reporting.table(..., name=...)`` writes them) in a Markdown output."""
+    tables = []
+    for block in re.findall(r"```\{table\}.*?\n(.*?)```", markdown, re.S):
+        rows = [line.strip() for line in block.splitlines() if line.strip().startswith("|")]
+        if len(rows) < 2:
+            continue
+        cells = [[c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", r)[1:-1]] for r in rows]
+        tables.append({"head": [[("th", c) for c in cells[0]]],
+                       "body": [[("td", c) for c in r] for r in cells[2:]]})
+    return tables
+
+
 def stored_outputs(chapter: str) -> tuple[str, list[StoredTable]]:
-    """All stored text outputs of a chapter, and its stored HTML tables."""
+    """All stored text outputs of a chapter, and its stored tables (HTML, or numbered MyST tables)."""
     nb = json.loads((BOOK / f"{chapter}.ipynb").read_text(encoding="utf-8"))
     texts, tables = [], []
     for cell in nb["cells"]:
@@ -111,6 +125,8 @@ def stored_outputs(chapter: str) -> tuple[str, list[StoredTable]]:
                 parser = _Tables()
                 parser.feed("".join(data["text/html"]))
                 tables += [StoredTable(t) for t in parser.tables]
+            if "text/markdown" in data:
+                tables += [StoredTable(t) for t in _myst_tables("".join(data["text/markdown"]))]
     return "\n".join(texts), tables
 
 
