@@ -71,6 +71,11 @@ machine's core count.
 This module imports nothing of the linkage.  References: H. B. Keller, *Numerical solution of
 bifurcation and nonlinear eigenvalue problems* (1977); E. J. Doedel et al., AUTO-07P manual;
 A. Dhooge, W. Govaerts, Yu. A. Kuznetsov, MatCont (ACM TOMS 29, 2003).
+
+**What the motion does at an unstable orbit.**  :func:`settle` marches the map from the orbit,
+disturbed along its most unstable Floquet direction, and names what the Poincaré samples settle
+on: a period-2 orbit (shot on the twice-iterated map, with its multipliers), another period-1
+orbit (shot), no periodic motion of period 1 or 2 within the march, or a divergence.
 """
 
 from __future__ import annotations
@@ -82,7 +87,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import ComputationError, FivebarError, InputError
-from .periodic import PeriodMap, floquet_multipliers, monodromy, _one_blas_thread, shoot
+from .periodic import PeriodMap, PeriodicOrbit, floquet_multipliers, monodromy, _one_blas_thread, shoot
 
 __all__ = [
     "Bifurcation",
@@ -90,7 +95,9 @@ __all__ = [
     "BranchPoint",
     "ContinuationError",
     "continuation",
+    "Settled",
     "iterated_map",
+    "settle",
     "switch_period_doubling",
 ]
 
@@ -724,3 +731,89 @@ def switch_period_doubling(
     J2 = prob.jac(y)[0]
     t = _tangent(J2, c)
     return continuation(f2, x2, p2, p_end, scale=D, p_scale=p_scale, tol=tol, tangent=t, **kwargs)
+
+
+@dataclass
+class Settled:
+    r"""What a march from an unstable periodic orbit settles on (:func:`settle`).
+
+    Attributes
+    ----------
+    kind : str
+        "period-2", "other period-1", "no periodic motion" (of period 1 or 2 within the
+        march: quasi-periodic, chaotic or slowly settling) or "diverges" (a period failed or
+        the state is no longer finite).
+    found : PeriodicOrbit or None
+        The orbit it settles on, shot from the last sample: of the twice-iterated map for a
+        period-2 orbit (its ``x`` is one of the two iterates, its multipliers those of
+        :math:`\mathbf P^2`), of the map for another period-1 orbit; None otherwise.
+    samples : ndarray (m, N)
+        The Poincaré samples of the march (the disturbed start first; up to the failure for
+        a divergence).
+    """
+
+    kind: str
+    found: PeriodicOrbit | None
+    samples: Array
+
+
+@_one_blas_thread
+def settle(period_map: PeriodMap, orbit: PeriodicOrbit, p: float | None = None, *, periods: int = 400,
+           scale: ArrayLike | None = None, disturbance: float = 0.01, rtol: float = 1e-4,
+           tol: float = 1e-10) -> Settled:
+    r"""March the map from an (unstable) orbit and name what it settles on.
+
+    ``s = settle(f, shoot(f, x0, p), p)``; ``s.kind``, ``s.found.multipliers``.
+
+    The start is ``orbit.x + disturbance * d * e`` (the sign of ``disturbance`` picks the side),
+    ``e`` the real part of the eigenvector of
+    the largest multiplier (in the scaled variables ``x / d``, normalised to a largest entry
+    1), ``d`` = ``scale`` (default: the largest entry of ``orbit.x`` for every component, or 1
+    where the orbit is 0).  After ``periods`` map applications the last eight samples decide,
+    with ``size`` their largest entry: period 2 if every sample repeats the one two before to
+    ``rtol * size`` and differs from the one before by more than ``10 rtol * size``; period 1
+    if every sample repeats the one before to ``rtol * size``.  The orbit found is then shot
+    (:func:`fivebar.periodic.shoot`, ``tol``) from the last sample, so it is a fixed point of the
+    map (or of its square) with its own multipliers, not the march's approximation.
+    """
+    if isinstance(periods, bool) or int(periods) != periods or periods < 8:
+        raise InputError(f"periods = {periods!r} is not allowed: give an integer >= 8")
+    for name, v in (("disturbance", disturbance), ("rtol", rtol), ("tol", tol)):
+        if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and (v > 0 or name == "disturbance" and v)):
+            raise InputError(f"{name} = {v!r} is not allowed: give a finite "
+                             + ("non-zero number (its sign picks the side)" if name == "disturbance" else "positive number"))
+    x0 = np.asarray(orbit.x, float)
+    if scale is None:
+        big = float(np.abs(x0).max())
+        D = np.full(x0.size, big if big > 0 else 1.0)
+    else:
+        D = np.asarray(scale, float)
+        if D.shape != x0.shape or not np.all(D > 0):
+            raise InputError(f"scale has shape {D.shape} or non-positive entries: give ({x0.size},) positive values")
+    w, V = np.linalg.eig((orbit.monodromy / D[:, None]) * D[None, :])
+    e = np.real(V[:, np.argmax(np.abs(w))])
+    x = x0 + float(disturbance) * D * e / np.abs(e).max()
+    xs = [x]
+    try:
+        for _ in range(int(periods)):
+            x = period_map(x, p, False)[0]
+            if not np.all(np.isfinite(x)):
+                break
+            xs.append(x)
+    except FivebarError:
+        return Settled("diverges", None, np.array(xs))
+    xs = np.array(xs)
+    if len(xs) <= int(periods):
+        return Settled("diverges", None, xs)
+    last = xs[-8:]
+    size = max(float(np.abs(last).max()), 1e-300)
+    one = float(np.abs(last[1:] - last[:-1]).max())
+    two = float(np.abs(last[2:] - last[:-2]).max())
+    try:
+        if two <= rtol * size < 0.1 * one:
+            return Settled("period-2", shoot(iterated_map(period_map, 2), last[-1], p, tol=tol, scale=D), xs)
+        if one <= rtol * size:
+            return Settled("other period-1", shoot(period_map, last[-1], p, tol=tol, scale=D), xs)
+    except FivebarError:
+        pass  # the samples looked periodic but no orbit is shot from them: not settled
+    return Settled("no periodic motion", None, xs)
