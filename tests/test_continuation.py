@@ -300,3 +300,39 @@ def test_settle_between_the_folds_finds_the_stable_orbit_a_dop853_march_reaches(
         found = out.found.x if sign > 0 else (found, out.found.x)
     # the two directions reach the two stable orbits (the small and the large response)
     assert np.abs(found[0] - found[1]).max() > 0.1
+
+
+def _swapping_map():
+    """A linear map x -> A(p) x + b whose multipliers are known in closed form: a pair
+    2 +- sqrt(p - 1.1) (non-real below p = 1.1, two real ones above, outside the unit circle
+    up to p = 2), and 5 and (p - 0.05) / 5, whose product passes 1 at p = 1.05 (a neutral saddle;
+    the products of the last with the pair stay below 1 up to p = 1.5).  No multiplier crosses
+    the unit circle in 0 < p < 1.5."""
+    def A(p):
+        M = np.zeros((4, 4))
+        M[:2, :2] = [[2.0, 1.0], [p - 1.1, 2.0]]  # eigenvalues 2 +- sqrt(p - 1.1)
+        M[2, 2], M[3, 3] = 5.0, (p - 0.05) / 5.0
+        return M
+
+    b = np.array([0.1, 0.0, 0.1, 0.1])
+
+    def f(x, p=None, jacobian=False):
+        M = A(p)
+        return M @ x + b, (M if jacobian else None)
+    return f
+
+
+def test_a_neutral_saddle_with_a_pair_turning_real_is_no_neimark_sacker():
+    # between two points a complex pair outside the circle turns real (the count of non-real
+    # multipliers outside changes) and two real multipliers pass through product 1 (the
+    # bialternate determinant changes sign): both test conditions of a Neimark-Sacker point hold,
+    # yet no multiplier is on the unit circle; the located point must be discarded
+    f = _swapping_map()
+    br = continuation(f, np.zeros(4), 0.0, 1.5, ds=0.5, ds_min=0.5, ds_max=0.5, scale=np.full(4, 100.0))
+    assert br.stop.startswith("p_end")
+    assert any(a < 1.05 and 1.1 < b for a, b in zip(br.p[:-1], br.p[1:]))  # both in one step
+    assert [b.kind for b in br.bifurcations] == []
+    assert [b.kind for b in br.discarded] == ["Neimark-Sacker"]
+    # what it found there: the pair still non-real at the neutral saddle p = 1.05, |mu| = sqrt(4.05)
+    d = br.discarded[0]
+    assert abs(d.p - 1.05) < 1e-6 and abs(abs(d.critical) - math.sqrt(4.05)) < 1e-6 and d.distance() > 1

@@ -48,7 +48,14 @@ practice of AUTO and MatCont):
 Between two points whose test function changes sign, the point is located by the Illinois
 variant of regula falsi in the arclength (each trial point corrected onto the branch) until
 the bracket in arclength is below ``locate_tol`` (scaled units) or the test function below
-1e-10; each :class:`Bifurcation` reports its parameter, its multipliers and the bracket.
+1e-10; each :class:`Bifurcation` reports its parameter, its multipliers and the bracket.  A
+located point is kept only if its critical multiplier lies within ``critical_tol`` (default
+0.01) of the unit circle (:meth:`Bifurcation.distance`: ``|mu - 1|`` at a fold, ``|mu + 1|`` at
+a period doubling, ``||mu| - 1|`` of a non-real pair at a Neimark-Sacker point); otherwise the
+sign change had another cause (the bialternate determinant, for example, also changes sign at
+a neutral saddle, and the count of non-real multipliers outside the circle also changes where
+a pair outside turns real, so that both can happen within one step with no multiplier on the
+circle) and the crossing goes to ``Branch.discarded`` instead of ``Branch.bifurcations``.
 
 **Branch switching at a period doubling.**  At the flip the period-2 orbits form a branch
 of fixed points of the twice-iterated map :math:`\mathbf P^2` that crosses the period-1
@@ -196,6 +203,17 @@ class Bifurcation:
         cx = cx[cx.imag > 0]
         return complex(cx[np.argmin(np.abs(np.abs(cx) - 1))]) if cx.size else complex("nan")
 
+    def distance(self) -> float:
+        """Distance of the critical multiplier from the unit circle where this kind crosses it:
+        ``|mu - 1|`` (fold), ``|mu + 1|`` (period doubling), ``||mu| - 1|`` (Neimark-Sacker;
+        infinite where no multiplier is non-real)."""
+        c = self.critical
+        if self.kind == "fold":
+            return abs(c - 1.0)
+        if self.kind == "period doubling":
+            return abs(c + 1.0)
+        return abs(abs(c) - 1.0) if math.isfinite(c.real) else math.inf
+
     def describe(self, unit: str = "") -> str:
         """One line: kind, parameter, bracket and critical multiplier."""
         u = f" {unit}" if unit else ""
@@ -222,6 +240,10 @@ class Branch:
         Newton iterations.
     stop : str
         Why it stopped.
+    discarded : list of Bifurcation
+        Sign changes of a test function whose located point has no critical multiplier within
+        ``critical_tol`` of the unit circle (:func:`continuation`): not bifurcations, kept to
+        show what was found there.
     """
 
     points: list[BranchPoint]
@@ -231,6 +253,7 @@ class Branch:
     p_scale: float
     stats: dict
     stop: str = ""
+    discarded: list[Bifurcation] = field(default_factory=list)
 
     @property
     def p(self) -> Array:
@@ -366,6 +389,7 @@ def continuation(
     dp: float = 1e-6,
     locate: bool = True,
     locate_tol: float = 1e-7,
+    critical_tol: float = 0.01,
     tangent: ArrayLike | None = None,
     p_bounds: tuple[float, float] | None = None,
 ) -> Branch:
@@ -401,6 +425,9 @@ def continuation(
         Locate the bifurcations (else they are reported at the first point past them).
     locate_tol : float
         Stated tolerance of the location: the arclength bracket (scaled) at the end.
+    critical_tol : float
+        A located bifurcation is kept only if its critical multiplier lies within this of the
+        unit circle (:meth:`Bifurcation.distance`); else it goes to ``Branch.discarded``.
     tangent : array_like (N + 1,), optional
         Initial direction (scaled); default the tangent oriented towards ``p_end``.
     p_bounds : (float, float), optional
@@ -417,7 +444,7 @@ def continuation(
         The step fell below ``ds_min`` (its ``branch`` attribute holds the points so far).
     """
     for name, v in (("ds", ds), ("ds_min", ds_min), ("ds_max", ds_max), ("p_scale", p_scale),
-                    ("tol", tol), ("locate_tol", locate_tol), ("dp", dp)):
+                    ("tol", tol), ("locate_tol", locate_tol), ("critical_tol", critical_tol), ("dp", dp)):
         if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v > 0):
             raise InputError(f"{name} = {v!r} is not allowed: give a finite positive number")
     if not ds_min <= ds <= ds_max:
@@ -451,6 +478,7 @@ def continuation(
     pts = [BranchPoint(x0.copy(), float(p0), floquet_multipliers(Phi), t, 0.0, 0,
                        float(np.linalg.norm(g)))]
     bifs: list[Bifurcation] = []
+    discarded: list[Bifurcation] = []
     Jc = J  # the chord Jacobian (of the last converged point)
     h = float(ds)
     stop = f"max_points = {max_points} reached"
@@ -474,7 +502,7 @@ def continuation(
                     f"continuation: the step fell below ds_min = {ds_min:g} at p = {yk[-1] * p_scale:.8g} "
                     f"after {len(pts)} points (the corrector did not converge in {max_newton} iterations, "
                     "or a period of the map failed)")
-                err.branch = Branch(pts, bifs, periods, D, float(p_scale), prob.stats, str(err))
+                err.branch = Branch(pts, bifs, periods, D, float(p_scale), prob.stats, str(err), discarded)
                 raise err
         y1, it = res
         J1, g1, Phi1 = prob.jac(y1)
@@ -485,7 +513,9 @@ def continuation(
         prev = pts[-1]
         pts.append(q)
         Jc = J1
-        bifs.extend(_detect(prob, prev, q, len(pts) - 2, yk, tk, step, locate, locate_tol, periods, tol, max_newton))
+        for bif, located in _detect(prob, prev, q, len(pts) - 2, yk, tk, step, locate, locate_tol, periods, tol,
+                                    max_newton):
+            (discarded if located and not bif.distance() <= critical_tol else bifs).append(bif)
         y, t = y1, t1
         if target is not None:
             stop = f"p_end = {p_end:g} reached"
@@ -497,7 +527,7 @@ def continuation(
         if it > max_newton // 2 + 1:
             factor = min(factor, 1.0)
         h = min(ds_max, h * factor)
-    return Branch(pts, bifs, periods, D, float(p_scale), prob.stats, stop)
+    return Branch(pts, bifs, periods, D, float(p_scale), prob.stats, stop, discarded)
 
 
 def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: float,
@@ -578,8 +608,9 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
 
 
 def _detect(prob, a: BranchPoint, b: BranchPoint, index, yk, tk, step, locate, locate_tol,
-            periods, tol, max_newton) -> list[Bifurcation]:
-    """Bifurcations between the points a and b (b reached from yk along tk with ``step``)."""
+            periods, tol, max_newton) -> list[tuple[Bifurcation, bool]]:
+    """Bifurcations between the points a and b (b reached from yk along tk with ``step``), each
+    with whether it was located (else it is reported at b)."""
     out = []
     ta, tb = _tests(a.multipliers, a.tangent), _tests(b.multipliers, b.tangent)
     changed = {kind: ta[kind] * tb[kind] < 0 for kind in _KINDS}
@@ -592,13 +623,14 @@ def _detect(prob, a: BranchPoint, b: BranchPoint, index, yk, tk, step, locate, l
         if locate and math.isfinite(fa) and math.isfinite(fb) and fa * fb < 0:
             out.append(_locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, tol, max_newton))
         else:  # reported at the first point past it
-            out.append(Bifurcation(kind, b.p, b.x, b.multipliers, index, (a.p, b.p),
-                                   fb, b.tangent, periods))
+            out.append((Bifurcation(kind, b.p, b.x, b.multipliers, index, (a.p, b.p),
+                                    fb, b.tangent, periods), False))
     return out
 
 
 def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, tol, max_newton):
-    """Illinois regula falsi on the arclength s in (0, step)."""
+    """Illinois regula falsi on the arclength s in (0, step); the bifurcation and whether it
+    was located (else it is reported at b)."""
     D, ps = prob.D, prob.ps
     s0, s1 = 0.0, step
     f0, f1 = fa, fb
@@ -637,9 +669,10 @@ def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, 
             break
     pl, ph = q0, q1
     if best is None:
-        return Bifurcation(kind, b.p, b.x, b.multipliers, index, (a.p, b.p), fb, b.tangent, periods)
+        return Bifurcation(kind, b.p, b.x, b.multipliers, index, (a.p, b.p), fb, b.tangent, periods), False
     y, mu, t, f = best
-    return Bifurcation(kind, float(y[-1] * ps), D * y[:-1], mu, index, (float(pl), float(ph)), float(f), t, periods)
+    return Bifurcation(kind, float(y[-1] * ps), D * y[:-1], mu, index, (float(pl), float(ph)), float(f), t,
+                       periods), True
 
 
 @_one_blas_thread
