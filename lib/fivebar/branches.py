@@ -310,8 +310,7 @@ def follow(
         ``benchmarks/bench_continuation.py``) the branch turns back at four folds (169.6, 160.9, 247.7 and
         171.3 r/min); with ``ds_max`` = 1.5 / points the median step was that bound and 200
         points ended at 207.6 r/min, with 10 / points the branch reached 300 r/min in 196
-        points (median step 0.0053, largest 0.05); with the corrector's curvature predictor and
-        Broyden updates, in 177 points (median step 0.0062) and 2858 periods instead of 3733.
+        points (median step 0.0053, largest 0.05).
     scale
         Scale of the state (default: from the energy norm, relative to the largest orbit of
         the linear model at 12 values across the range; see ``_scan_scale``).

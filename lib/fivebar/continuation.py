@@ -18,19 +18,12 @@ whose Jacobian :math:`\begin{bmatrix}\boldsymbol\Phi - \mathbf I & \mathbf G_p\\
 branch is followed around folds.  Lengths are measured in scaled variables
 :math:`(\mathbf x / \mathbf d,\ p / p_s)` (arguments ``scale``, ``p_scale``).  The monodromy
 matrix :math:`\boldsymbol\Phi` comes from the period map (the integrator's tangent) and
-:math:`\mathbf G_p` from one forward difference in ``p``.  The corrector starts from the
-tangent predictor plus the curvature term :math:`\Delta s^2\,\mathbf c` of the parabola
-through the last point, with its tangent, and the point before (the orbit the branch's
-bending predicts: the corrector then starts a second-order distance from the branch instead
-of :math:`\kappa\Delta s^2/2`).  It is a chord iteration with the Jacobian of the last
-converged point, whose periodicity rows Broyden's rank-one formula updates after every
-iteration (no period spent); the Jacobian is refreshed at the
+:math:`\mathbf G_p` from one forward difference in ``p``.  The corrector is a chord
+iteration with the Jacobian of the last converged point; the Jacobian is refreshed at the
 present iterate when an iteration reduces the residual by less than 5 (twice at most) or when
 its update, halved three times, still fails to integrate a period or multiplies the residual
 by more than 10 (Newton's residual may grow for an iteration on its way; a tenfold growth is
-taken for divergence); a step that fails with the present Jacobian too is rejected, as is one
-whose residual a second fresh Jacobian no longer halves or whose iterate goes farther than the
-step from the tangent predictor (both given up at once, not after ``max_newton`` iterations).  Step-size control: a step whose corrector needs
+taken for divergence); a step that fails with the present Jacobian too is rejected.  Step-size control: a step whose corrector needs
 more than ``max_newton`` iterations (or fails), or whose corrector ends farther than half
 the step from the predictor, is halved (down to ``ds_min``); after a converged step the next
 is scaled by :math:`\sqrt{0.1\,\Delta s/\delta}`, :math:`\delta` the distance of the
@@ -489,7 +482,6 @@ def continuation(
     Jc = J  # the chord Jacobian (of the last converged point)
     h = float(ds)
     stop = f"max_points = {max_points} reached"
-    curv = None  # the branch's second derivative in arclength at the last point (from the two last points)
     while len(pts) < max_points:
         yk, tk = y, t
         while True:
@@ -497,7 +489,7 @@ def continuation(
             yp = yk + h * tk
             if (yp[-1] * p_scale - p_end) * sgn > 0 and (yk[-1] * p_scale - p_end) * sgn < 0 and tk[-1] * sgn > 0:
                 target = p_end / p_scale  # the last point: on p = p_end
-            res = _correct(prob, yk, tk, h, Jc, tol, max_newton, target, curv)
+            res = _correct(prob, yk, tk, h, Jc, tol, max_newton, target)
             if res is not None:
                 dist = float(np.linalg.norm(res[0] - yp))
                 if target is not None or dist <= 0.5 * h:
@@ -515,10 +507,6 @@ def continuation(
         y1, it = res
         J1, g1, Phi1 = prob.jac(y1)
         t1 = _tangent(J1, tk)
-        # the curvature term of the next predictor: the parabola through y1 with tangent t1 through yk
-        # (the corrector starts there; the step control measures from the tangent predictor)
-        s1 = float(np.linalg.norm(y1 - yk))
-        curv = (yk - y1 + s1 * t1) / s1 ** 2 if s1 > 0 else None
         mu1 = floquet_multipliers(Phi1)
         step = float(tk @ (y1 - yk))
         q = BranchPoint(D * y1[:-1], float(y1[-1] * p_scale), mu1, t1, step, it, float(np.linalg.norm(g1)))
@@ -543,21 +531,13 @@ def continuation(
 
 
 def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: float,
-             max_newton: int, target: float | None, curv: Array | None = None):
+             max_newton: int, target: float | None):
     """Damped chord-Newton corrector from the predictor; ``(y, iterations)`` or None.
 
-    The start is the tangent predictor ``yk + h tk``, plus ``h^2 curv`` (the branch's curvature
-    term from the last two points) where given.  The Jacobian's periodicity rows are updated by
-    Broyden's rank-one formula after every iteration (no period spent) and refreshed as
-    described in the module.  An update whose period fails to integrate, or that multiplies the
-    residual by more than 10, is halved (three times at most).  The corrector gives up early
-    when a fresh Jacobian no longer halves the residual, or when the iterate goes farther than
-    the step ``h`` from the tangent predictor (the step would be rejected).  ``target``: correct
-    onto ``p = target`` instead of the arclength constraint."""
+    An update whose period fails to integrate, or that multiplies the residual by more than
+    10, is halved (three times at most).  ``target``: correct onto ``p = target`` instead of the
+    arclength constraint."""
     y = yk + h * tk
-    yt = y.copy()  # the tangent predictor
-    if curv is not None:
-        y = y + h * h * curv
     if target is not None:
         y[-1] = target
     row = np.zeros_like(tk)
@@ -584,30 +564,18 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
         return np.vstack([J, row if target is not None else tk])
 
     g = residual(y)
-    if g is None and curv is not None:  # the curvature term went too far: the tangent predictor
-        y = yt.copy()
-        if target is not None:
-            y[-1] = target
-        g = residual(y)
     if g is None:
         return None
-    slow_fresh = False  # the last iteration with a fresh Jacobian did not halve the residual
     for it in range(1, max_newton + 1):
         r = np.concatenate([g, [constraint(y)]])
         rn = float(np.linalg.norm(r))
-        if slow_fresh and rn > 0.5 * prev_norm:
-            return None  # not even a fresh Jacobian converges: the step is too long
-        if target is None and it > 1 and float(np.linalg.norm(y - yt)) > h:
-            return None  # far from the predictor: the step would be rejected
         current = False  # B is the Jacobian at this y
-        slow_fresh = False
         if rn > 0.2 * prev_norm and refreshed < 2:  # the chord is slow: fresh Jacobian
             B = fresh(y)
             if B is None:
                 return None
             refreshed += 1
             current = True
-            slow_fresh = refreshed == 2
         prev_norm = rn
         floor = tol * max(1.0, float(np.linalg.norm(y[:-1])))
         while True:
@@ -632,12 +600,7 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
             if B is None:
                 return None
             current = True
-        step_y = lam * dy
-        nn = float(step_y @ step_y)
-        if nn > 0:  # Broyden's update of the periodicity rows: B step = the change of the residual
-            B = B.copy()
-            B[:-1] += np.outer((gt - g) - B[:-1] @ step_y, step_y) / nn
-        y, g = y + step_y, gt
+        y, g = y + lam * dy, gt
         prob.stats["newton"] += 1
         if lam == 1.0 and (np.linalg.norm(g) <= floor or np.linalg.norm(dy) <= tol * max(1.0, np.linalg.norm(y))):
             return y, it
@@ -667,7 +630,8 @@ def _detect(prob, a: BranchPoint, b: BranchPoint, index, yk, tk, step, locate, l
 
 def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, tol, max_newton, Jc=None):
     """Illinois regula falsi on the arclength s in (0, step); the bifurcation and whether it
-    was located (else it is reported at b)."""
+    was located (else it is reported at b).  ``Jc``: the Jacobian at ``yk`` (the last point's,
+    which the continuation has; else computed here)."""
     D, ps = prob.D, prob.ps
     s0, s1 = 0.0, step
     f0, f1 = fa, fb
