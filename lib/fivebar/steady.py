@@ -787,9 +787,9 @@ def steady_state(
         Where the orbit is unstable (``res.stable`` False, ``res.note`` says so), also find
         what the linkage does there: a march of 400 periods from the orbit, disturbed along
         its most unstable Floquet direction, names a period-2 orbit, another period-1 orbit,
-        no periodic motion or a divergence (:func:`fivebar.branches.describe_speed`; with a
-        :func:`fivebar.branches.follow` branch that also names the bifurcation).  The report is
-        ``res.explained`` and ends ``res.note``.  Default False: an unstable orbit costs nothing
+        no periodic motion or a divergence (:func:`fivebar.branches.explain_steady`, the report of
+        :func:`fivebar.branches.describe_speed`, which with a followed branch also names the
+        nearest bifurcation).  The report is ``res.explained`` and ends ``res.note``.  Default False: an unstable orbit costs nothing
         more (its note says how to ask).  Needs ``method="shooting"`` (the multipliers);
         computes the multipliers of a nonlinear orbit (one period with the monodromy matrix).
     """
