@@ -21,7 +21,9 @@ The glue between the linkage (:class:`fivebar.setup.Setup`, the period map of
   each value started from the last state of the previous one.
 * :func:`describe_speed`: at one speed, what the linkage does: the stable period-1 orbit, or,
   where it is unstable, what a march from it settles on (a period-2 orbit shot and checked, a
-  different period-1 orbit, no periodic motion, or a divergence).
+  different period-1 orbit, no periodic motion, or a divergence; the generic
+  :func:`fivebar.continuation.settle`).  :func:`explain_steady` gives the same report for a
+  solved steady state; ``steady_state(..., explain=True)`` attaches it to its result.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .continuation import Branch, ContinuationError, continuation, iterated_map, switch_period_doubling
+from .continuation import Branch, ContinuationError, continuation, iterated_map, settle, switch_period_doubling
 from .errors import FivebarError, InputError
 from .newmark import NewtonConvergenceError
 from .params import Params
@@ -42,7 +44,7 @@ from .setup import Setup, as_setup
 from .steady import SteadyState, _monodromy_period, _period, steady_state
 
 __all__ = ["BruteForceDiagram", "LinkageBranch", "LinkagePeriodMap", "SpeedReport", "brute_force_diagram", "describe_speed",
-           "follow", "follow_period_doubling", "linkage_period_map"]
+           "explain_steady", "follow", "follow_period_doubling", "linkage_period_map"]
 
 Array = NDArray[np.float64]
 
@@ -525,25 +527,51 @@ def describe_speed(setup: Setup | Params, value: float | None = None, parameter:
 
     Shoots the period-1 orbit; if it is stable, says so.  Otherwise marches ``periods``
     periods from it, disturbed along its most unstable Floquet direction (by 1 % of its
-    size), and names what the Poincaré samples settle on: a period-2 orbit (shot on the
-    twice-iterated map, its multipliers given), another period-1 orbit, no periodic motion
-    within the march, or a divergence.  With ``branch`` the nearest located bifurcation below
-    the value is named as well ("period doubling at ... r/min; stable period-2 orbit ...").
+    size), and names what the Poincaré samples settle on (:func:`fivebar.continuation.settle`):
+    a period-2 orbit (shot on the twice-iterated map, its multipliers given), another period-1
+    orbit, no periodic motion within the march, or a divergence.  With ``branch`` the nearest
+    located bifurcation is named as well ("period doubling at ... r/min; stable period-2
+    orbit ...").  ``steady_state(..., explain=True)`` gives the same report for the orbit it
+    solved (:attr:`fivebar.steady.SteadyState.explained`).
     """
     s = as_setup(setup)
     f = linkage_period_map(s, parameter)
     p = f.setup_value() if value is None else float(value)
-    unit = " r/min" if parameter == _SPEED else ""
+    try:
+        st = steady_state(_setup_at(s, parameter, p))
+    except FivebarError as exc:
+        return SpeedReport(f"at {p:.6g}{_unit(parameter)}: no period-1 orbit found by shooting "
+                           f"({type(exc).__name__}: {exc})", "no periodic motion", None)
+    return _describe(f, p, st, periods, branch)
+
+
+def _unit(parameter: str) -> str:
+    return " r/min" if parameter == _SPEED else ""
+
+
+def explain_steady(st: SteadyState, periods: int = 400) -> SpeedReport:
+    """:func:`describe_speed`'s report for a solved steady state ``st`` (its set-up and speed),
+    without solving it again: what ``steady_state(..., explain=True)`` attaches."""
+    if st.setup is None:
+        raise InputError("explain needs the set-up of the result: solve with a fivebar.Setup or Params")
+    f = linkage_period_map(st.setup)
+    return _describe(f, f.setup_value(), st, periods, None)
+
+
+def _describe(f: LinkagePeriodMap, p: float, st: SteadyState, periods: int,
+              branch: LinkageBranch | None) -> SpeedReport:
+    """The report at ``p`` from the steady state ``st`` found there (shot again on the map to
+    its tolerance, one or two periods from a converged orbit)."""
+    unit = _unit(f.parameter)
     where = f"at {p:.6g}{unit}"
     cause = ""
     if branch is not None and branch.bifurcations:
         near = min(branch.bifurcations, key=lambda b: abs(b.p - p))
         cause = f"{near.kind} at {near.p:.6g}{unit} (critical multiplier {near.critical.real:+.4f}" \
                 f"{near.critical.imag:+.4f}i); "
+    x0 = f.state(st)
+    D = np.full(x0.size, max(float(np.abs(x0).max()), 1e-12))
     try:
-        st = steady_state(_setup_at(s, parameter, p))
-        x0 = f.state(st)
-        D = np.full(x0.size, max(float(np.abs(x0).max()), 1e-12))
         orb = shoot(f, x0, p, scale=D)
     except FivebarError as exc:
         return SpeedReport(f"{where}: no period-1 orbit found by shooting ({type(exc).__name__}: {exc})",
@@ -552,37 +580,24 @@ def describe_speed(setup: Setup | Params, value: float | None = None, parameter:
     if orb.stable:
         return SpeedReport(f"{where}: stable period-1 orbit, largest Floquet multiplier |mu| = "
                            f"{abs(mu[0]):.4g}", "stable period-1", orb)
-    w, V = np.linalg.eig(orb.monodromy)
-    e = np.real(V[:, np.argmax(np.abs(w))])
-    x = orb.x + 0.01 * np.abs(orb.x).max() * e / np.abs(e).max()
     head = f"{where}: the period-1 orbit is unstable (multiplier {mu[0].real:+.4f}{mu[0].imag:+.4f}i); " + cause
-    try:
-        xs = [x]
-        for _ in range(int(periods)):
-            x = f(x, p, False)[0]
-            xs.append(x)
-        xs = np.array(xs)
-    except FivebarError as exc:
-        return SpeedReport(head + f"a march from it fails ({type(exc).__name__}): the motion leaves the model's "
-                           "range (divergence)", "diverges", orb)
-    if not np.all(np.isfinite(xs)):
-        return SpeedReport(head + "a march from it diverges", "diverges", orb)
-    last = xs[-8:]
-    size = max(float(np.abs(last).max()), 1e-300)
-    if np.abs(last[2:] - last[:-2]).max() <= 1e-4 * size and np.abs(last[1:] - last[:-1]).max() > 1e-3 * size:
-        f2 = _Doubled(f)
-        o2 = shoot(f2, last[-1], p, scale=D)
-        m2 = o2.multipliers
+    out = settle(f, orb, p, periods=int(periods), scale=D)
+    if out.kind == "diverges":
+        return SpeedReport(head + "a march from it fails or diverges: the motion leaves the model's range "
+                           "(divergence)", "diverges", orb)
+    if out.kind == "period-2":
+        o2 = out.found
         state = "stable" if o2.stable else "unstable"
         _, dyn = f.dynamics(p)
         y1 = _midpoint0(dyn, o2.x[:dyn.n], "L2")
         y2 = _midpoint0(dyn, f(o2.x, p, False)[0][:dyn.n], "L2")
         return SpeedReport(head + f"{state} period-2 orbit (L2 midpoint at crank angle 0 alternating "
                            f"{y1:.4g} / {y2:.4g} mm; largest multiplier of the twice-iterated map |mu| = "
-                           f"{abs(m2[0]):.4g})", "period-2", orb, o2)
-    if np.abs(last[1:] - last[:-1]).max() <= 1e-4 * size:
-        o1 = shoot(f, last[-1], p, scale=D)
-        return SpeedReport(head + f"a march from it settles on another period-1 orbit (|mu| = "
+                           f"{o2.spectral_radius:.4g})", "period-2", orb, o2)
+    if out.kind == "other period-1":
+        o1 = out.found
+        state = "stable" if o1.stable else "unstable"
+        return SpeedReport(head + f"a march from it settles on another, {state} period-1 orbit (|mu| = "
                            f"{o1.spectral_radius:.4g}, state differing by "
                            f"{np.abs(o1.x - orb.x).max() / max(np.abs(orb.x).max(), 1e-300):.3g} of its size)",
                            "other period-1", orb, o1)

@@ -48,7 +48,14 @@ practice of AUTO and MatCont):
 Between two points whose test function changes sign, the point is located by the Illinois
 variant of regula falsi in the arclength (each trial point corrected onto the branch) until
 the bracket in arclength is below ``locate_tol`` (scaled units) or the test function below
-1e-10; each :class:`Bifurcation` reports its parameter, its multipliers and the bracket.
+1e-10; each :class:`Bifurcation` reports its parameter, its multipliers and the bracket.  A
+located point is kept only if its critical multiplier lies within ``critical_tol`` (default
+0.01) of the unit circle (:meth:`Bifurcation.distance`: ``|mu - 1|`` at a fold, ``|mu + 1|`` at
+a period doubling, ``||mu| - 1|`` of a non-real pair at a Neimark-Sacker point); otherwise the
+sign change had another cause (the bialternate determinant, for example, also changes sign at
+a neutral saddle, and the count of non-real multipliers outside the circle also changes where
+a pair outside turns real, so that both can happen within one step with no multiplier on the
+circle) and the crossing goes to ``Branch.discarded`` instead of ``Branch.bifurcations``.
 
 **Branch switching at a period doubling.**  At the flip the period-2 orbits form a branch
 of fixed points of the twice-iterated map :math:`\mathbf P^2` that crosses the period-1
@@ -71,6 +78,11 @@ machine's core count.
 This module imports nothing of the linkage.  References: H. B. Keller, *Numerical solution of
 bifurcation and nonlinear eigenvalue problems* (1977); E. J. Doedel et al., AUTO-07P manual;
 A. Dhooge, W. Govaerts, Yu. A. Kuznetsov, MatCont (ACM TOMS 29, 2003).
+
+**What the motion does at an unstable orbit.**  :func:`settle` marches the map from the orbit,
+disturbed along its most unstable Floquet direction, and names what the Poincaré samples settle
+on: a period-2 orbit (shot on the twice-iterated map, with its multipliers), another period-1
+orbit (shot), no periodic motion of period 1 or 2 within the march, or a divergence.
 """
 
 from __future__ import annotations
@@ -82,7 +94,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import ComputationError, FivebarError, InputError
-from .periodic import PeriodMap, floquet_multipliers, monodromy, _one_blas_thread, shoot
+from .periodic import PeriodMap, PeriodicOrbit, floquet_multipliers, monodromy, _one_blas_thread, shoot
 
 __all__ = [
     "Bifurcation",
@@ -90,7 +102,9 @@ __all__ = [
     "BranchPoint",
     "ContinuationError",
     "continuation",
+    "Settled",
     "iterated_map",
+    "settle",
     "switch_period_doubling",
 ]
 
@@ -189,6 +203,17 @@ class Bifurcation:
         cx = cx[cx.imag > 0]
         return complex(cx[np.argmin(np.abs(np.abs(cx) - 1))]) if cx.size else complex("nan")
 
+    def distance(self) -> float:
+        """Distance of the critical multiplier from the unit circle where this kind crosses it:
+        ``|mu - 1|`` (fold), ``|mu + 1|`` (period doubling), ``||mu| - 1|`` (Neimark-Sacker;
+        infinite where no multiplier is non-real)."""
+        c = self.critical
+        if self.kind == "fold":
+            return abs(c - 1.0)
+        if self.kind == "period doubling":
+            return abs(c + 1.0)
+        return abs(abs(c) - 1.0) if math.isfinite(c.real) else math.inf
+
     def describe(self, unit: str = "") -> str:
         """One line: kind, parameter, bracket and critical multiplier."""
         u = f" {unit}" if unit else ""
@@ -215,6 +240,10 @@ class Branch:
         Newton iterations.
     stop : str
         Why it stopped.
+    discarded : list of Bifurcation
+        Sign changes of a test function whose located point has no critical multiplier within
+        ``critical_tol`` of the unit circle (:func:`continuation`): not bifurcations, kept to
+        show what was found there.
     """
 
     points: list[BranchPoint]
@@ -224,6 +253,7 @@ class Branch:
     p_scale: float
     stats: dict
     stop: str = ""
+    discarded: list[Bifurcation] = field(default_factory=list)
 
     @property
     def p(self) -> Array:
@@ -359,6 +389,7 @@ def continuation(
     dp: float = 1e-6,
     locate: bool = True,
     locate_tol: float = 1e-7,
+    critical_tol: float = 0.01,
     tangent: ArrayLike | None = None,
     p_bounds: tuple[float, float] | None = None,
 ) -> Branch:
@@ -394,6 +425,9 @@ def continuation(
         Locate the bifurcations (else they are reported at the first point past them).
     locate_tol : float
         Stated tolerance of the location: the arclength bracket (scaled) at the end.
+    critical_tol : float
+        A located bifurcation is kept only if its critical multiplier lies within this of the
+        unit circle (:meth:`Bifurcation.distance`); else it goes to ``Branch.discarded``.
     tangent : array_like (N + 1,), optional
         Initial direction (scaled); default the tangent oriented towards ``p_end``.
     p_bounds : (float, float), optional
@@ -410,7 +444,7 @@ def continuation(
         The step fell below ``ds_min`` (its ``branch`` attribute holds the points so far).
     """
     for name, v in (("ds", ds), ("ds_min", ds_min), ("ds_max", ds_max), ("p_scale", p_scale),
-                    ("tol", tol), ("locate_tol", locate_tol), ("dp", dp)):
+                    ("tol", tol), ("locate_tol", locate_tol), ("critical_tol", critical_tol), ("dp", dp)):
         if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v > 0):
             raise InputError(f"{name} = {v!r} is not allowed: give a finite positive number")
     if not ds_min <= ds <= ds_max:
@@ -444,6 +478,7 @@ def continuation(
     pts = [BranchPoint(x0.copy(), float(p0), floquet_multipliers(Phi), t, 0.0, 0,
                        float(np.linalg.norm(g)))]
     bifs: list[Bifurcation] = []
+    discarded: list[Bifurcation] = []
     Jc = J  # the chord Jacobian (of the last converged point)
     h = float(ds)
     stop = f"max_points = {max_points} reached"
@@ -467,7 +502,7 @@ def continuation(
                     f"continuation: the step fell below ds_min = {ds_min:g} at p = {yk[-1] * p_scale:.8g} "
                     f"after {len(pts)} points (the corrector did not converge in {max_newton} iterations, "
                     "or a period of the map failed)")
-                err.branch = Branch(pts, bifs, periods, D, float(p_scale), prob.stats, str(err))
+                err.branch = Branch(pts, bifs, periods, D, float(p_scale), prob.stats, str(err), discarded)
                 raise err
         y1, it = res
         J1, g1, Phi1 = prob.jac(y1)
@@ -477,8 +512,10 @@ def continuation(
         q = BranchPoint(D * y1[:-1], float(y1[-1] * p_scale), mu1, t1, step, it, float(np.linalg.norm(g1)))
         prev = pts[-1]
         pts.append(q)
-        Jc = J1
-        bifs.extend(_detect(prob, prev, q, len(pts) - 2, yk, tk, step, locate, locate_tol, periods, tol, max_newton))
+        Jk, Jc = Jc, J1  # the Jacobians at the last point (the locator's chord) and at the new one
+        for bif, located in _detect(prob, prev, q, len(pts) - 2, yk, tk, step, locate, locate_tol, periods, tol,
+                                    max_newton, Jk):
+            (discarded if located and not bif.distance() <= critical_tol else bifs).append(bif)
         y, t = y1, t1
         if target is not None:
             stop = f"p_end = {p_end:g} reached"
@@ -490,7 +527,7 @@ def continuation(
         if it > max_newton // 2 + 1:
             factor = min(factor, 1.0)
         h = min(ds_max, h * factor)
-    return Branch(pts, bifs, periods, D, float(p_scale), prob.stats, stop)
+    return Branch(pts, bifs, periods, D, float(p_scale), prob.stats, stop, discarded)
 
 
 def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: float,
@@ -571,8 +608,9 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
 
 
 def _detect(prob, a: BranchPoint, b: BranchPoint, index, yk, tk, step, locate, locate_tol,
-            periods, tol, max_newton) -> list[Bifurcation]:
-    """Bifurcations between the points a and b (b reached from yk along tk with ``step``)."""
+            periods, tol, max_newton, Jk=None) -> list[tuple[Bifurcation, bool]]:
+    """Bifurcations between the points a and b (b reached from yk along tk with ``step``), each
+    with whether it was located (else it is reported at b)."""
     out = []
     ta, tb = _tests(a.multipliers, a.tangent), _tests(b.multipliers, b.tangent)
     changed = {kind: ta[kind] * tb[kind] < 0 for kind in _KINDS}
@@ -583,22 +621,23 @@ def _detect(prob, a: BranchPoint, b: BranchPoint, index, yk, tk, step, locate, l
             continue
         fa, fb = ta[kind], tb[kind]
         if locate and math.isfinite(fa) and math.isfinite(fb) and fa * fb < 0:
-            out.append(_locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, tol, max_newton))
+            out.append(_locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, tol, max_newton, Jk))
         else:  # reported at the first point past it
-            out.append(Bifurcation(kind, b.p, b.x, b.multipliers, index, (a.p, b.p),
-                                   fb, b.tangent, periods))
+            out.append((Bifurcation(kind, b.p, b.x, b.multipliers, index, (a.p, b.p),
+                                    fb, b.tangent, periods), False))
     return out
 
 
-def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, tol, max_newton):
-    """Illinois regula falsi on the arclength s in (0, step)."""
+def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, tol, max_newton, Jc=None):
+    """Illinois regula falsi on the arclength s in (0, step); the bifurcation and whether it
+    was located (else it is reported at b).  ``Jc``: the Jacobian at ``yk`` (the last point's,
+    which the continuation has; else computed here)."""
     D, ps = prob.D, prob.ps
     s0, s1 = 0.0, step
     f0, f1 = fa, fb
     q0, q1 = a.p, b.p  # parameters at s0, s1
     side = 0
     best = None
-    Jc = None
     for _ in range(60):
         if abs(s1 - s0) <= locate_tol:
             break
@@ -630,9 +669,10 @@ def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, 
             break
     pl, ph = q0, q1
     if best is None:
-        return Bifurcation(kind, b.p, b.x, b.multipliers, index, (a.p, b.p), fb, b.tangent, periods)
+        return Bifurcation(kind, b.p, b.x, b.multipliers, index, (a.p, b.p), fb, b.tangent, periods), False
     y, mu, t, f = best
-    return Bifurcation(kind, float(y[-1] * ps), D * y[:-1], mu, index, (float(pl), float(ph)), float(f), t, periods)
+    return Bifurcation(kind, float(y[-1] * ps), D * y[:-1], mu, index, (float(pl), float(ph)), float(f), t,
+                       periods), True
 
 
 @_one_blas_thread
@@ -724,3 +764,89 @@ def switch_period_doubling(
     J2 = prob.jac(y)[0]
     t = _tangent(J2, c)
     return continuation(f2, x2, p2, p_end, scale=D, p_scale=p_scale, tol=tol, tangent=t, **kwargs)
+
+
+@dataclass
+class Settled:
+    r"""What a march from an unstable periodic orbit settles on (:func:`settle`).
+
+    Attributes
+    ----------
+    kind : str
+        "period-2", "other period-1", "no periodic motion" (of period 1 or 2 within the
+        march: quasi-periodic, chaotic or slowly settling) or "diverges" (a period failed or
+        the state is no longer finite).
+    found : PeriodicOrbit or None
+        The orbit it settles on, shot from the last sample: of the twice-iterated map for a
+        period-2 orbit (its ``x`` is one of the two iterates, its multipliers those of
+        :math:`\mathbf P^2`), of the map for another period-1 orbit; None otherwise.
+    samples : ndarray (m, N)
+        The Poincaré samples of the march (the disturbed start first; up to the failure for
+        a divergence).
+    """
+
+    kind: str
+    found: PeriodicOrbit | None
+    samples: Array
+
+
+@_one_blas_thread
+def settle(period_map: PeriodMap, orbit: PeriodicOrbit, p: float | None = None, *, periods: int = 400,
+           scale: ArrayLike | None = None, disturbance: float = 0.01, rtol: float = 1e-4,
+           tol: float = 1e-10) -> Settled:
+    r"""March the map from an (unstable) orbit and name what it settles on.
+
+    ``s = settle(f, shoot(f, x0, p), p)``; ``s.kind``, ``s.found.multipliers``.
+
+    The start is ``orbit.x + disturbance * d * e`` (the sign of ``disturbance`` picks the side),
+    ``e`` the real part of the eigenvector of
+    the largest multiplier (in the scaled variables ``x / d``, normalised to a largest entry
+    1), ``d`` = ``scale`` (default: the largest entry of ``orbit.x`` for every component, or 1
+    where the orbit is 0).  After ``periods`` map applications the last eight samples decide,
+    with ``size`` their largest entry: period 2 if every sample repeats the one two before to
+    ``rtol * size`` and differs from the one before by more than ``10 rtol * size``; period 1
+    if every sample repeats the one before to ``rtol * size``.  The orbit found is then shot
+    (:func:`fivebar.periodic.shoot`, ``tol``) from the last sample, so it is a fixed point of the
+    map (or of its square) with its own multipliers, not the march's approximation.
+    """
+    if isinstance(periods, bool) or int(periods) != periods or periods < 8:
+        raise InputError(f"periods = {periods!r} is not allowed: give an integer >= 8")
+    for name, v in (("disturbance", disturbance), ("rtol", rtol), ("tol", tol)):
+        if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and (v > 0 or name == "disturbance" and v)):
+            raise InputError(f"{name} = {v!r} is not allowed: give a finite "
+                             + ("non-zero number (its sign picks the side)" if name == "disturbance" else "positive number"))
+    x0 = np.asarray(orbit.x, float)
+    if scale is None:
+        big = float(np.abs(x0).max())
+        D = np.full(x0.size, big if big > 0 else 1.0)
+    else:
+        D = np.asarray(scale, float)
+        if D.shape != x0.shape or not np.all(D > 0):
+            raise InputError(f"scale has shape {D.shape} or non-positive entries: give ({x0.size},) positive values")
+    w, V = np.linalg.eig((orbit.monodromy / D[:, None]) * D[None, :])
+    e = np.real(V[:, np.argmax(np.abs(w))])
+    x = x0 + float(disturbance) * D * e / np.abs(e).max()
+    xs = [x]
+    try:
+        for _ in range(int(periods)):
+            x = period_map(x, p, False)[0]
+            if not np.all(np.isfinite(x)):
+                break
+            xs.append(x)
+    except FivebarError:
+        return Settled("diverges", None, np.array(xs))
+    xs = np.array(xs)
+    if len(xs) <= int(periods):
+        return Settled("diverges", None, xs)
+    last = xs[-8:]
+    size = max(float(np.abs(last).max()), 1e-300)
+    one = float(np.abs(last[1:] - last[:-1]).max())
+    two = float(np.abs(last[2:] - last[:-2]).max())
+    try:
+        if two <= rtol * size < 0.1 * one:
+            return Settled("period-2", shoot(iterated_map(period_map, 2), last[-1], p, tol=tol, scale=D), xs)
+        if one <= rtol * size:
+            return Settled("other period-1", shoot(period_map, last[-1], p, tol=tol, scale=D), xs)
+    except FivebarError:
+        pass  # the samples looked periodic but no orbit is shot from them: not settled
+    return Settled("no periodic motion", None, xs)

@@ -157,7 +157,18 @@ class SteadyState:
         if rho < 1.0:
             return (f"stable: largest Floquet multiplier {rho:.3g} with {_scheme_text(self.scheme)} at "
                     f"S = {self.dynamics.steps}" + tail)
-        return f"unstable: largest Floquet multiplier {rho:.3g}; " + _remedy(self.scheme, self.dynamics.steps) + tail
+        found = self._cache.get("explained")
+        found = ("; what a march from it settles on: " + found.text if found is not None else
+                 "; steady_state(..., explain=True) names what a march from it settles on")
+        return (f"unstable: largest Floquet multiplier {rho:.3g}; " + _remedy(self.scheme, self.dynamics.steps)
+                + found + tail)
+
+    @property
+    def explained(self):
+        """Where the orbit is unstable and ``steady_state(..., explain=True)`` was asked: what a
+        march from it settles on (a :class:`fivebar.branches.SpeedReport`: its ``kind``,
+        ``text``, the orbit ``found``); else None."""
+        return self._cache.get("explained")
 
     @property
     def validity(self) -> dict[str, Any]:
@@ -740,6 +751,7 @@ def steady_state(
     scheme: Scheme | None = None,
     elements_per_link: tuple[int, int, int, int] | None = None,
     tol: float | None = None,
+    explain: bool = False,
 ) -> SteadyState:
     """The periodic steady state of the linkage over one period of the motion.
 
@@ -771,9 +783,23 @@ def steady_state(
         finer one.  For the second-order schemes that change over-estimates the finer
         solution's error in the asymptotic range (about three times).  ``res.accuracy`` holds
         the S compared, the estimate and every step tried; ``res.note`` says what was chosen.
+    explain
+        Where the orbit is unstable (``res.stable`` False, ``res.note`` says so), also find
+        what the linkage does there: a march of 400 periods from the orbit, disturbed along
+        its most unstable Floquet direction, names a period-2 orbit, another period-1 orbit,
+        no periodic motion or a divergence (:func:`fivebar.branches.explain_steady`, the report of
+        :func:`fivebar.branches.describe_speed`, which with a followed branch also names the
+        nearest bifurcation).  The report is ``res.explained`` and ends ``res.note``.  Default False: an unstable orbit costs nothing
+        more (its note says how to ask).  Needs ``method="shooting"`` (the multipliers);
+        computes the multipliers of a nonlinear orbit (one period with the monodromy matrix).
     """
     if method not in ("shooting", "march"):
         raise InputError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
+    if not isinstance(explain, bool):
+        raise InputError(f"explain = {explain!r} is not allowed: give True or False")
+    if explain and method != "shooting":
+        raise InputError(f"explain = True and method = {method!r} are not allowed together: explain needs the "
+                         "Floquet multipliers of shooting (method='shooting')")
     if tol is not None:
         tol = number("tol", tol, low=0.0, high=1.0, low_open=True, high_open=True)
         if steps_per_period is not None:
@@ -787,6 +813,10 @@ def steady_state(
         res = shooting(s)
     else:
         res = march(s)
+    if explain and res.stable is False:
+        from .branches import explain_steady  # (branches builds on this module)
+
+        res._cache["explained"] = explain_steady(res)
     outside = res._outside()
     if outside:
         warnings.warn(f"the steady state at {s.crank_speed_rpm:g} r/min is outside the model's validity: "
