@@ -679,3 +679,73 @@ def test_every_figure_is_numbered_captioned_and_described(book):
     pages = [book / p.relative_to(ROOT).with_suffix(".html") for p in _chapter_notebooks()]
     problems = [msg for page in pages if page.is_file() for msg in _figure_problems(page)]
     assert not problems, f"{len(problems)} figure problems:\n" + "\n".join(problems)
+
+
+# --------------------------------------------------------------------------------------------
+# Tables: numbered and captioned
+# --------------------------------------------------------------------------------------------
+
+
+def _table_problems(page: Path, chapter: int) -> list[str]:
+    """Every table of a chapter's text must carry a caption numbered "Table <chapter>.k" (a MyST
+    ``{table}``, as ``fivebar.reporting.table(..., name=)`` writes it; a pandas Styler or a bare
+    DataFrame has none) that says what is tabulated; the text must not point at "the table
+    above/below"; one string per problem."""
+    from bs4 import BeautifulSoup
+
+    soup = BeautifulSoup(page.read_text(encoding="utf-8"), "html.parser")
+    main = soup.find("article") or soup
+    problems = []
+    for k, tab in enumerate(main.find_all("table"), 1):
+        head = " | ".join(c.get_text(" ", strip=True) for c in tab.find_all(["th", "td"])[:3])
+        where = f"{page.name}, table {k} ({head[:50]!r})"
+        caption = tab.find("caption")
+        number = caption.find(class_="caption-number") if caption else None
+        if number is None:
+            problems.append(f"{where}: no numbered caption (use fivebar.reporting.table(..., name=))")
+            continue
+        m = re.fullmatch(r"Table (\d+)\.(\d+)", number.get_text(" ", strip=True))
+        if not m or int(m.group(1)) != chapter:
+            problems.append(f"{where}: numbered {number.get_text(strip=True)!r}, not 'Table {chapter}.k'")
+        text = caption.get_text(" ", strip=True)
+        if len(text.split()) < 6:
+            problems.append(f"{where}: caption {text!r} does not say what is tabulated")
+    for k, p in enumerate(main.find_all("p"), 1):
+        t = p.get_text(" ", strip=True)
+        if re.search(r"\bthe tables? (above|below)\b", t, re.I):
+            problems.append(f"{page.name}: paragraph {k} refers to 'the table above/below' "
+                            "instead of the table's number")
+    return problems
+
+
+def test_every_table_is_numbered_and_captioned(book):
+    """A chapter table (01-13) without a caption numbered "Table N.k" (N the chapter), with a
+    caption that says nothing, or a reference to "the table above", fails."""
+    problems = []
+    for nb in _chapter_notebooks():
+        page = book / nb.relative_to(ROOT).with_suffix(".html")
+        if page.is_file():
+            problems += _table_problems(page, int(nb.name[:2]))
+    assert not problems, f"{len(problems)} table problems:\n" + "\n".join(problems)
+
+
+def test_the_table_check_finds_unnumbered_tables(tmp_path):
+    """The check itself (no build): a numbered caption of the chapter passes; a Styler's table
+    (caption without number), a bare DataFrame, another chapter's number, an empty caption and
+    'the table below' are found."""
+    numbered = ('<table class="table" id="tab-07-pp"><caption><span class="caption-number">Table 7.{k} '
+                '</span><span class="caption-text">{text}</span></caption><tr><td>1</td></tr></table>')
+    page = tmp_path / "07_x.html"
+    page.write_text("<article>" + numbered.format(k=1, text="Peak-to-peak deflections at the chapter's speeds")
+                    + "<p>As Table 7.1 shows.</p></article>", encoding="utf-8")
+    assert _table_problems(page, 7) == []
+    page.write_text(
+        "<article>" + '<table id="T_fivebar0123"><caption>Peak-to-peak at the speeds</caption></table>'
+        + '<table class="dataframe"><tr><td>2</td></tr></table>'
+        + numbered.format(k=1, text="Peak-to-peak deflections at the chapter's speeds").replace("7.1", "8.1")
+        + numbered.format(k=2, text="Deflections") + "<p>The table below compares them.</p></article>",
+        encoding="utf-8")
+    found = _table_problems(page, 7)
+    expected = ["no numbered caption", "no numbered caption", "numbered 'Table 8.1', not 'Table 7.k'",
+                "caption 'Table 7.2 Deflections", "refers to 'the table above/below'"]
+    assert len(found) == len(expected) and all(e in m for e, m in zip(expected, found)), found

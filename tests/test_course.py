@@ -120,7 +120,7 @@ def _mini_book(tmp_path: Path, monkeypatch, with_anim: bool) -> tuple[Path, Path
     (src / "book" / "course.toml").write_text((ROOT / teaching.COURSE_FILE).read_text())
     (src / "conf.py").write_text(
         f"import sys\nsys.path.insert(0, {str(ROOT / 'book' / '_ext')!r})\n"
-        "extensions = ['myst_parser', 'fivebar_teaching']\nmyst_enable_extensions = ['colon_fence']\n"
+        "extensions = ['myst_parser', 'fivebar_teaching']\nmyst_enable_extensions = ['colon_fence', 'dollarmath']\n"
         "exclude_patterns = ['book/_generated']\n")
     (src / "index.md").write_text("# Book\n\n```{toctree}\nbook/course\nbook/09_figure6\nbook/06_newmark\n```\n")
     (src / "book" / "course.md").write_text("# Course map\n\n```{course-map} chapters\n```\n\n```{course-map} short\n```\n")
@@ -165,6 +165,9 @@ def test_directives_render_in_a_sphinx_build(tmp_path, monkeypatch):
     cmap = html.unescape((out / "book" / "course.html").read_text())
     assert 'href="06_newmark.html"' in cmap  # a chapter of the build is linked
     assert "Multibody validation (Exudyn against the KED model) (planned)" in cmap  # one that is not, is not
+    # prerequisites and the work of a course path are MyST like the objectives: their maths typeset
+    eig = r"\mathbf K \boldsymbol\phi = \omega^2 \mathbf M \boldsymbol\phi"
+    assert re.search(r'<span class="math[^"]*">\\\(' + re.escape(eig) + r"\\\)</span>", cmap), "05's prerequisite"
 
 
 def test_a_missing_animation_fails_the_build(tmp_path, monkeypatch):
@@ -217,3 +220,35 @@ def test_the_project_rubric_sums_to_100(course, tmp_path):
     (tmp_path / "course.toml").write_text(bad)
     with pytest.raises(ValueError, match="rubric weights"):
         teaching.load_course(tmp_path / "course.toml")
+
+
+# ASCII maths in the course map's text: phi, omega, x^2, x_k, "S = 100", single-letter matrices
+_ASCII_MATH = re.compile(r"[A-Za-z]_[A-Za-z0-9{]|\^\d|\bsqrt\(|\b(?:phi|omega|zeta|beta|theta\d?|Omega|sigma|mu0|rho)\b"
+                         r"|\b[A-Z] = \d|\b[MK]\b|<=|>=")
+
+
+_SHOWN = ("title", "objectives", "prerequisites", "why", "work", "audience", "task", "deliverables",
+          "criterion", "excellent", "adequate", "insufficient")
+
+
+def _shown(value, key: str | None = None) -> list[str]:
+    """The texts of course.toml that the pages show (under the keys of _SHOWN, at any depth)."""
+    if isinstance(value, str):
+        return [value] if key in _SHOWN else []
+    if isinstance(value, dict):
+        return [s for k, v in value.items() for s in _shown(v, k)]
+    if isinstance(value, list):
+        return [s for v in value for s in _shown(v, key)]
+    return []
+
+
+def test_the_course_map_writes_its_maths_in_latex(course):
+    """Every text of course.toml that the course map and the chapters show writes its formulas in
+    LaTeX between $...$ like the rest of the book (issue 22: "K phi = omega^2 M phi" was ASCII)."""
+    texts = [t for t in _shown(course) if not t.startswith("book/")]
+    assert len(texts) > 100
+    bad = [(hit.group(0), t) for t in texts
+           if (hit := _ASCII_MATH.search(re.sub(r"`[^`]*`", " ", re.sub(r"\$[^$]*\$", " ", t))))]
+    assert not bad, f"ASCII maths in course.toml (write it as $...$): {bad}"
+    assert _ASCII_MATH.search("the generalised eigenproblem K phi = omega^2 M phi")
+    assert not _ASCII_MATH.search(re.sub(r"\$[^$]*\$", " ", "at $S = 100$ with $\\mathbf K$"))

@@ -157,6 +157,8 @@ def test_a_named_table_is_a_numbered_myst_table():
         table(df, name="tab-07-pp")
     with pytest.raises(ReportError, match="'q'"):
         table(df, digits={"q": 2}, caption="c.", name="tab-07-pp")
+    with pytest.raises(ReportError, match="a backtick or a line break ends the table's fence"):
+        table(df, caption="As {numref}`tab-07-pp`, at 120 r/min.", name="tab-07-pp2")
 
 
 _ASCII_MATH = re.compile(r"[A-Za-z]_[A-Za-z0-9{]|\^\d|\bsqrt\(|\b(?:mu0|delta0|sigma|omega|varsigma|vartheta|gamma\d|"

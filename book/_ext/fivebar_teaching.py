@@ -179,7 +179,9 @@ def _bullets(items: list[nodes.Node]) -> nodes.bullet_list:
     return ul
 
 
-def _prereq(env, course, ch) -> nodes.paragraph:
+def _prereq(directive: SphinxDirective, course, ch) -> nodes.paragraph:
+    """A chapter's prerequisites: chapters as links, outside knowledge as MyST (maths as $...$)."""
+    env = directive.env
     p = nodes.paragraph()
     if not ch["prerequisites"]:
         p += nodes.Text("none")
@@ -190,7 +192,7 @@ def _prereq(env, course, ch) -> nodes.paragraph:
             other = chapter_entry(course, item)
             p += _doc_ref(env, _resolve(env, course, item), other["title"] if other else item)
         else:
-            p += nodes.Text(item)
+            p += _inline(directive, item)
     return p
 
 
@@ -215,7 +217,7 @@ class LearningObjectives(SphinxDirective):
         box += nodes.title(text="Learning objectives")
         box += nodes.paragraph(text="After this chapter you can:")
         box += _bullets([nodes.paragraph("", "", *_inline(self, o)) for o in ch["objectives"]])
-        pre = _prereq(self.env, course, ch)
+        pre = _prereq(self, course, ch)
         pre.insert(0, nodes.strong(text="Prerequisites: "))
         box += pre
         box += nodes.paragraph(
@@ -249,7 +251,7 @@ class CourseMap(SphinxDirective):
                 name += nodes.paragraph(text=f"{_hours(ch['reading'])} reading, {_hours(ch['working'])} working")
                 obj = _bullets([nodes.paragraph("", "", *_inline(self, o)) for o in ch["objectives"]])
                 pre = nodes.container()
-                pre += _prereq(env, course, ch)
+                pre += _prereq(self, course, ch)
                 pre += nodes.paragraph("", "", nodes.emphasis(text=f"{ch['role'].capitalize()}: "), nodes.Text(ch["why"]))
                 rows.append([name, obj, pre])
                 total[ch["role"]][0] += ch["reading"]
@@ -273,7 +275,7 @@ class CourseMap(SphinxDirective):
                     docs += nodes.Text(", ")
                 docs += _doc_ref(env, _resolve(env, course, f), _titled(course, f))
             work = nodes.container()
-            work += nodes.paragraph(text=step["work"])
+            work += nodes.paragraph("", "", *_inline(self, step["work"]))
             if step.get("exercises"):
                 work += _exercise_refs(step["exercises"])
             rows.append([nodes.paragraph(text=step["label"]), docs, work])

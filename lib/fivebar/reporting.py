@@ -255,8 +255,9 @@ def table(df: pd.DataFrame, digits: int | dict[str, int] = 4, caption: str | Non
     ------
     ReportError
         If ``digits`` is not an integer from 1 to 15 (or a mapping of column names to
-        integers from 0 to 15), if ``name`` is not of the form ``tab-NN-word``, or if
-        ``name`` is given without a caption.
+        integers from 0 to 15), if ``name`` is not of the form ``tab-NN-word``, if
+        ``name`` is given without a caption, or if such a caption holds a backtick or a line
+        break (they would end the directive's fence: put roles in the text instead).
     """
     import hashlib
     import re
@@ -282,6 +283,9 @@ def table(df: pd.DataFrame, digits: int | dict[str, int] = 4, caption: str | Non
         if not caption or not str(caption).strip():
             raise ReportError(f"caption = {caption!r} is not allowed: a numbered table needs a caption "
                               "that says what is tabulated")
+        if "`" in str(caption) or "\n" in str(caption):
+            raise ReportError(f"caption = {caption!r} is not allowed: a backtick or a line break ends the "
+                              "table's fence; write roles such as {numref} in the text around the table")
         return _myst_table(df, digits, str(caption), name)
     floats = [c for c in df.columns if pd.api.types.is_float_dtype(df[c])]
     styler = df.style.hide(axis="index").format({c: f"{{:.{digits}g}}" for c in floats}, na_rep="–")
