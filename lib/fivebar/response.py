@@ -294,9 +294,10 @@ def quasi_static(system: LinkageDynamics | Setup | Params, t: ArrayLike | None =
     subsystem (the response to a slow inertial load), as a Response.
 
     ``t`` None: at the S step times and the period's end (S + 1 samples, the last equal to the
-    first), from the sampled matrices, with the velocity by the periodic central difference;
-    else at the times ``t`` (at least two, increasing), with the velocity by
-    ``numpy.gradient`` (second order).  ``method == "quasi-static"``.
+    first), from the sampled matrices, with the velocity by the periodic central difference
+    over the step (second order in the step, as the quasi-static start of
+    :func:`fivebar.steady.shooting`); else at the times ``t`` (s), with the velocity by a
+    central difference over a millionth of the period.  ``method == "quasi-static"``.
     """
     dyn, _, setup = _resolve(system)
     if t is None:
@@ -307,10 +308,11 @@ def quasi_static(system: LinkageDynamics | Setup | Params, t: ArrayLike | None =
         return Response(dyn, times, np.concatenate([qs, qs[:1]]), np.concatenate([vs, vs[:1]]), "quasi-static",
                         setup=setup)
     times = array("t", t, shape=(None,))
-    if len(times) < 2 or np.any(np.diff(times) <= 0):
-        raise InputError(f"t = {t!r} is not allowed: give at least two increasing times (s), or None")
+    if len(times) < 1:
+        raise InputError(f"t = {t!r} is not allowed: give at least one time (s), or None")
+    h = 1e-6 * dyn.period
     qs = dyn.quasi_static(times)
-    vs = np.gradient(qs, times, axis=0, edge_order=2 if len(times) > 2 else 1)
+    vs = (dyn.quasi_static(times + h) - dyn.quasi_static(times - h)) / (2 * h)
     return Response(dyn, times, qs, vs, "quasi-static", setup=setup)
 
 
