@@ -413,15 +413,15 @@ class MultibodySteadyState:
 
     @property
     def method(self) -> str:
-        """What computed it: "multibody" (Exudyn), as :attr:`fivebar.response.Response.method`."""
+        """What computed it: "multibody" (Exudyn), as the ``method`` of a :class:`fivebar.response.Response`."""
         return "multibody"
 
     def plot(self, links=None, direction: str = "transverse", ax=None, **kwargs):
         """Draw the midpoint displacements against the crank angle
-        (:func:`fivebar.response.plot_response`)."""
-        from .response import plot_response
+        (:func:`fivebar.plotting.response_plot`); returns the matplotlib Axes."""
+        from .plotting import response_plot
 
-        return plot_response(self, links, direction, ax, **kwargs)
+        return response_plot(self, links, direction, ax, **kwargs)
 
 
 def multibody_steady_state(

@@ -41,7 +41,7 @@ from .newmark import Scheme, integrate
 from .params import Params
 from .setup import Setup
 
-__all__ = ["DIRECTIONS", "Response", "plot_response", "quasi_static", "radau", "transient"]
+__all__ = ["DIRECTIONS", "Response", "quasi_static", "radau", "transient"]
 
 #: the directions of :meth:`Response.deflection_mm` and :meth:`Response.midpoint_mm`
 DIRECTIONS = ("transverse", "longitudinal", "chord")
@@ -200,8 +200,11 @@ class Response:
         return dict(self._cache[key])
 
     def plot(self, links=None, direction: str = "transverse", ax=None, **kwargs):
-        """Draw the midpoint displacements against the crank angle (:func:`plot_response`)."""
-        return plot_response(self, links, direction, ax, **kwargs)
+        """Draw the midpoint displacements against the crank angle
+        (:func:`fivebar.plotting.response_plot`); returns the matplotlib Axes."""
+        from .plotting import response_plot
+
+        return response_plot(self, links, direction, ax, **kwargs)
 
 
 @functools.lru_cache(maxsize=64)
@@ -212,33 +215,6 @@ def _curvature_shapes(length: float, points: int) -> NDArray:
     N2[:, [0, 4]] = 0.0
     N2.flags.writeable = False
     return N2
-
-
-def plot_response(response, links=None, direction: str = "transverse", ax=None, **kwargs):
-    """Draw the midpoint displacements of ``links`` of a response, in micrometres, against the
-    crank angle.
-
-    ``response`` is anything with ``params``, ``crank_angle_deg`` and ``midpoint_mm`` (a
-    :class:`Response`, a :class:`fivebar.steady.SteadyState`, a
-    :class:`fivebar.multibody.MultibodySteadyState`); ``links`` default to the description's
-    couplers (L2 and L3 of the five-bar, as Figure 6); ``kwargs`` go to ``Axes.plot``.
-    Returns the axes.
-    """
-    import matplotlib.pyplot as plt
-
-    from .plotting import LABELS
-
-    linkage = response.params.linkage
-    links = tuple(linkage.couplers) if links is None else (links,) if isinstance(links, str) else tuple(links)
-    if ax is None:
-        _, ax = plt.subplots()
-    x = response.crank_angle_deg
-    for link in links:
-        ax.plot(x, 1e3 * response.midpoint_mm(link, direction), label=f"{link} ({response.method})", **kwargs)
-    ax.set_xlabel(LABELS["crank_angle"])
-    ax.set_ylabel(f"midpoint, {direction} ($\\mu$m)")
-    ax.legend()
-    return ax
 
 
 def _resolve(system, scheme: Scheme | None = None):
