@@ -155,6 +155,17 @@ CASES = [
     bad("march(v0 with inf)", lambda: march(L, v0=np.full(L.dynamics().n, INF)), "v0", "finite"),
     good("march(max_periods=np.int64(2000))", lambda: march(L, max_periods=np.int64(2000))),
     good("shooting(max_iter=np.int32(20))", lambda: shooting(L, max_iter=np.int32(20))),
+    # --- the result type in time: transient / quasi_static / radau / Response --------------
+    bad("transient(periods=0)", lambda: fb.transient(L, 0), "periods", "0"),
+    bad("transient(periods=2.5)", lambda: fb.transient(L, 2.5), "periods", "2.5"),
+    bad("transient(u0=[1.0])", lambda: fb.transient(L, 1, u0=[1.0]), "u0", "(1,)"),
+    bad("quasi_static(t='x')", lambda: fb.quasi_static(L, "x"), "t", "'x'"),
+    bad("radau(t=[0.0])", lambda: fb.radau(L, [0.0]), "t", "[0.0]"),
+    bad("radau(rtol=0)", lambda: fb.radau(L, [0.0, 1e-5], rtol=0), "rtol", "0"),
+    bad("Response.deflection_mm(s=2)", lambda: fb.quasi_static(L).deflection_mm("L2", 2), "s", "2"),
+    bad("Response.period(k=3)", lambda: fb.quasi_static(L).period(3), "k", "3"),
+    good("transient(periods=np.int64(1))", lambda: fb.transient(L, np.int64(1))),
+    good("Response.deflection_mm(s=np.float32(0.25))", lambda: fb.quasi_static(L).deflection_mm("L2", np.float32(0.25))),
     # --- speed_sweep / sweep_point ----------------------------------------------------------
     bad("speed_sweep(speeds_rpm=[])", lambda: speed_sweep(L, [], progress=False), "speeds_rpm", "[]"),
     bad("speed_sweep(speeds_rpm=[-1])", lambda: speed_sweep(L, [-1], progress=False), "speeds_rpm", "-1"),

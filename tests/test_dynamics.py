@@ -4,12 +4,12 @@ agreement of marching and shooting."""
 
 import numpy as np
 import pytest
-import scipy.integrate
 
+import fivebar
 from fivebar import load_params
 from fivebar.dynamics import LinkageDynamics, modal_damping
 from fivebar.newmark import GeneralizedAlpha, Newmark
-from fivebar.steady import SteadyState, SteadyStateError, march, shooting, steady_state
+from fivebar.steady import SteadyStateError, march, shooting, steady_state
 
 P = load_params()
 
@@ -42,25 +42,10 @@ def test_newmark_against_radau_on_the_full_model():
     model's stiffest mode (about 1.2e5 rad/s) makes Radau slow, while Newmark steps over it."""
     d = LinkageDynamics(P, nonlinear=False, steps_per_period=1600)
     ss = shooting(d)
-    n = d.n
-
-    def rhs(t, x):
-        M, C, K, F = d._sample(np.asarray(t))
-        return np.concatenate([x[n:], np.linalg.solve(M, F - C @ x[n:] - K @ x[:n])])
-
-    def jac(t, x):
-        M, C, K = d.matrices(t)
-        J = np.zeros((2 * n, 2 * n))
-        J[:n, n:] = np.eye(n)
-        J[n:, :n] = -np.linalg.solve(M, K)
-        J[n:, n:] = -np.linalg.solve(M, C)
-        return J
 
     ts = ss.t[:33:8]
-    x0 = np.concatenate([ss.u[0], ss.v[0]])
-    sol = scipy.integrate.solve_ivp(rhs, (0, ts[-1]), x0, method="Radau", t_eval=ts, rtol=1e-7, atol=1e-13, jac=jac)
-    assert sol.success
-    radau = SteadyState(d, ts, sol.y[:n].T, sol.y[n:].T, "radau", 1)
+    radau = fivebar.radau(d, ts, ss.u[0], ss.v[0], rtol=1e-7, atol=1e-13)
+    assert radau.method == "radau" and radau.solver.success
     for link in ("L2", "L3"):
         err = np.abs(ss.midpoint_mm(link)[:33:8] - radau.midpoint_mm(link)).max()
         assert err < 1e-5 * ss.peak_to_peak_mm(link)

@@ -17,7 +17,8 @@ from fivebar.linkage_multiscale import (
 )
 from fivebar.modal_equations import MultiscaleError
 from fivebar.newmark import GeneralizedAlpha
-from fivebar.steady import SteadyState, shooting
+from fivebar.response import Response
+from fivebar.steady import shooting
 
 
 @pytest.fixture(scope="module")
@@ -106,7 +107,7 @@ def test_first_approximation_is_the_modal_particular_solution(dyn_lin):
     """Away from resonance, (3.7) is the undamped particular solution of every harmonic:
     u(t) = sum_r phi_r(t) sum_k F_rk cos(k Omega t + tau_rk) / (w_r^2 - k^2 Omega^2)."""
     ms = multiple_scales(dynamics=dyn_lin, nonlinear=False)
-    assert isinstance(ms, MultipleScalesResponse) and isinstance(ms, SteadyState)
+    assert isinstance(ms, MultipleScalesResponse) and isinstance(ms, Response)
     assert np.all(ms.slow.a == 0.0) and ms.method == "multiple scales"
     mm = ms.modal
     t = ms.t
@@ -117,7 +118,7 @@ def test_first_approximation_is_the_modal_particular_solution(dyn_lin):
     Phi = np.concatenate([mm.basis.shapes, mm.basis.shapes[:1]])
     assert np.abs(ms.u - np.einsum("sik,sk->si", Phi, eta)).max() < 1e-12 * np.abs(ms.u).max()
     # the midpoint accessor works as for the numerical steady state
-    same = SteadyState(dyn_lin, ms.t, ms.u, ms.v, "x", 0)
+    same = Response(dyn_lin, ms.t, ms.u, ms.v, "x")
     assert ms.midpoint_mm("L2") == pytest.approx(same.midpoint_mm("L2"))
 
 

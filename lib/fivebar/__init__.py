@@ -28,6 +28,7 @@ _FACADE = {
     "DEFAULT_PARAMS_PATH": "params", "FOURBAR_PARAMS_PATH": "params", "Motor": "params", "ParameterError": "params",
     "Params": "params", "load_params": "params",
     "campbell_diagram": "resonance", "resonance_table": "resonance",
+    "Response": "response", "quasi_static": "response", "radau": "response", "transient": "response",
     "SteadyState": "steady", "SteadyStateError": "steady", "ValidityWarning": "steady", "steady_state": "steady",
     "SweepInterrupted": "sweep", "speed_sweep": "sweep",
 }
@@ -74,6 +75,7 @@ __all__ = [
     "NewtonConvergenceError",
     "ParameterError",
     "Params",
+    "Response",
     "SteadyState",
     "SteadyStateError",
     "UnstableParametersError",
@@ -91,9 +93,12 @@ __all__ = [
     "multiple_scales_newmark",
     "natural_frequencies",
     "positions",
+    "quasi_static",
+    "radau",
     "resonance_table",
     "speed_sweep",
     "steady_state",
+    "transient",
 ]
 __version__ = "0.1.0"
 

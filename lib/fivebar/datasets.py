@@ -84,7 +84,7 @@ def figure6_curves(params: Params, steps_per_period: int = FIGURE6_STEPS) -> pd.
     """Midpoint displacements (µm) of L2 and L3 over one steady period (Figure 6).
 
     Columns ``crank angle (deg)`` and ``<link> <direction> (um)`` for L2, L3 and the
-    directions of :meth:`fivebar.steady.SteadyState.midpoint_mm` (transverse, longitudinal,
+    directions of :meth:`fivebar.response.Response.midpoint_mm` (transverse, longitudinal,
     chord).  The steady state is :func:`fivebar.steady.steady_state` at ``steps_per_period``.
     """
     from .steady import steady_state

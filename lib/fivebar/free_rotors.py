@@ -71,7 +71,7 @@ the modal reduction of :mod:`fivebar.control_model`); ``w2, w3``: the transverse
 displacement of the midpoint of L2, L3 relative to the rigid motion at the rotor angles,
 :math:`w = \mathbf c^\top(\mathbf p - \boldsymbol\Phi_r\boldsymbol\varphi)`
 (:meth:`fivebar.assembly.Model.link_displacement`), the same quantity as the prescribed-motion
-model's midpoint deflection (:meth:`fivebar.steady.SteadyState.midpoint_mm`), in m.
+model's midpoint deflection (:meth:`fivebar.response.Response.midpoint_mm`), in m.
 
 **Left out** (state it wherever results are shown): the velocity-dependent terms of the
 nominal motion (Coriolis, centrifugal stiffening, :math:`\dot{\mathbf M}`), as in (2.7); the

@@ -4,7 +4,7 @@ The glue between the generic multiple-scales solver :mod:`fivebar.multiscale` (w
 :mod:`fivebar.modal_equations`, which know nothing of the linkage) and the model: :func:`modal_model` builds the modal system, harmonics
 and parametric terms of :class:`fivebar.dynamics.LinkageDynamics` from
 :func:`fivebar.excitation.modal_basis`; :func:`multiple_scales` returns the first
-approximation as a :class:`fivebar.steady.SteadyState`; :func:`multiple_scales_newmark` is the
+approximation as a :class:`fivebar.response.Response`; :func:`multiple_scales_newmark` is the
 paper's method (section 4): the first approximation at t = 0 as the initial state of the
 implicit scheme, marched to the steady state; :func:`compare_starts` measures its benefit.
 Every function takes a :class:`fivebar.setup.Setup` or a Params.
@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .modal_equations import Harmonic, ModalSystem, MultiscaleError, Parametric
 from .multiscale import DEFAULT_DETUNING, ModulationSteadyState, SlowFlow, modulation_equations
-from .steady import SteadyState as _LinkageSteadyState
+from .response import Response
 
 __all__ = [
     "ModalModel",
@@ -289,14 +289,13 @@ def default_detuning(model: ModalModel) -> float:
 
 
 @dataclass
-class MultipleScalesResponse(_LinkageSteadyState):
+class MultipleScalesResponse(Response):
     r"""The first approximation (3.6)-(3.7) over one period, as a steady state of the linkage.
 
-    A :class:`fivebar.steady.SteadyState` (``method == "multiple scales"``, ``periods == 0``)
-    whose ``u, v`` are :math:`\boldsymbol\Phi(t)\boldsymbol\eta(t)` and
+    A :class:`fivebar.response.Response` (``method == "multiple scales"``) whose ``u, v`` are :math:`\boldsymbol\Phi(t)\boldsymbol\eta(t)` and
     :math:`\boldsymbol\Phi\dot{\boldsymbol\eta} + \dot{\boldsymbol\Phi}\boldsymbol\eta`
-    at the S + 1 samples, so ``midpoint_mm(link, direction)``, ``peak_to_peak_mm`` and
-    ``bending_stress`` work as for the numerical steady state.  Extra attributes: ``modal``
+    at the S + 1 samples, so ``midpoint_mm(link, direction)``, ``peak_to_peak_mm``,
+    ``bending_stress`` and ``plot`` work as for the numerical steady state.  Extra attributes: ``modal``
     (:class:`ModalModel`), ``slow`` (the slow-flow :class:`ModulationSteadyState`: ``a``, ``theta0``,
     ``stable``), ``flow`` (:class:`SlowFlow`), ``eta`` and ``eta_dot`` ((S + 1, k)), and
     ``detuning``, the relative resonance tolerance used.
@@ -367,7 +366,7 @@ def multiple_scales(
     Returns
     -------
     MultipleScalesResponse
-        A :class:`fivebar.steady.SteadyState`.
+        A :class:`fivebar.response.Response`.
     """
     from .setup import as_setup
 
@@ -406,7 +405,7 @@ def multiple_scales(
     u = np.einsum("sik,sk->si", Phi, eta)
     v = np.einsum("sik,sk->si", Phi, eta_dot) + np.einsum("sik,sk->si", Phid, eta)
     return MultipleScalesResponse(
-        dynamics=dyn, t=t, u=u, v=v, method="multiple scales", periods=0,
+        dynamics=dyn, t=t, u=u, v=v, method="multiple scales",
         modal=model, slow=slow, flow=flow, eta=eta, eta_dot=eta_dot, detuning=tol,
     )
 

@@ -40,7 +40,7 @@ deflection) are all present.
   (higher modes are damped more, :math:`\zeta\omega_k/\omega_1`).
 * Gravity ``params.gravity`` along -y when it is not zero.
 
-Midpoint deflections are measured as in :meth:`fivebar.steady.SteadyState.midpoint_mm`: the
+Midpoint deflections are measured as in :meth:`fivebar.response.Response.midpoint_mm`: the
 displacement of the link's midpoint from its rigid-body position (the kinematics at the same
 crank angles), projected on the rigid link's normal ("transverse") or axis ("longitudinal");
 "chord" subtracts the mean transverse displacement of the two ends.
@@ -323,7 +323,9 @@ def damping_ratios(
 
 @dataclass
 class MultibodySteadyState:
-    """One steady period of the multibody model, read like :class:`fivebar.steady.SteadyState`.
+    """One steady period of the multibody model, read like :class:`fivebar.steady.SteadyState`
+    (the same accessors: ``t``, ``params``, ``crank_angle_deg``, ``deflection_mm``,
+    ``midpoint_mm``, ``peak_to_peak_mm``, ``method``, ``plot``).
 
     Attributes
     ----------
@@ -370,31 +372,56 @@ class MultibodySteadyState:
         u = pos[:, i, :] - (Pa + s * d)
         return np.sum(u * e, axis=-1), np.sum(u * nrm, axis=-1)
 
-    def midpoint_mm(self, link: str, direction: str = "transverse") -> NDArray:
-        """Elastic displacement of the midpoint of a link over the period (mm).
+    def deflection_mm(self, link: str, s: float = 0.5, direction: str = "transverse") -> NDArray:
+        """Elastic displacement (mm) of the node at ``s`` (0 to 1 from the link's first end) of a
+        link over the period.
 
-        Same definitions, directions and signs as :meth:`fivebar.steady.SteadyState.midpoint_mm`.
+        Same definitions, directions and signs as :meth:`fivebar.response.Response.deflection_mm`;
+        ``s`` must fall on a node of the link's mesh.
         """
         names = self.params.linkage.link_names
         if link not in names:
             raise InputError(f"link = {link!r} is not allowed: use one of {list(names)}")
         if direction not in _DIRECTIONS:
             raise InputError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
-        if self.positions[link].shape[1] % 2 == 0:
-            raise InputError(f"link = {link!r} has no node at its midpoint in this mesh")
-        ax, tr = self._displacement(link, 0.5)
+        nodes = self.positions[link].shape[1] - 1
+        if not (0.0 <= s <= 1.0) or abs(s * nodes - round(s * nodes)) > 1e-9:
+            raise InputError(f"s = {s!r} is not allowed for link = {link!r}: its {nodes} elements have nodes at "
+                             f"multiples of 1/{nodes}" + (" (no node at its midpoint in this mesh)"
+                                                          if s == 0.5 else ""))
+        ax, tr = self._displacement(link, s)
         if direction == "longitudinal":
             return 1e3 * ax
         if direction == "transverse":
             return 1e3 * tr
         _, tr0 = self._displacement(link, 0.0)
         _, tr1 = self._displacement(link, 1.0)
-        return 1e3 * (tr - 0.5 * (tr0 + tr1))
+        return 1e3 * (tr - ((1.0 - s) * tr0 + s * tr1))
+
+    def midpoint_mm(self, link: str, direction: str = "transverse") -> NDArray:
+        """Elastic displacement (mm) of the midpoint of a link over the period:
+        :meth:`deflection_mm` at ``s = 0.5`` (the mesh has a node there on the couplers).
+
+        Same definitions, directions and signs as :meth:`fivebar.response.Response.midpoint_mm`.
+        """
+        return self.deflection_mm(link, 0.5, direction)
 
     def peak_to_peak_mm(self, link: str, direction: str = "transverse") -> float:
         """Peak-to-peak value (mm) of :meth:`midpoint_mm` over the period."""
         y = self.midpoint_mm(link, direction)
         return float(y.max() - y.min())
+
+    @property
+    def method(self) -> str:
+        """What computed it: "multibody" (Exudyn), as the ``method`` of a :class:`fivebar.response.Response`."""
+        return "multibody"
+
+    def plot(self, links=None, direction: str = "transverse", ax=None, **kwargs):
+        """Draw the midpoint displacements against the crank angle
+        (:func:`fivebar.plotting.response_plot`); returns the matplotlib Axes."""
+        from .plotting import response_plot
+
+        return response_plot(self, links, direction, ax, **kwargs)
 
 
 def multibody_steady_state(

@@ -26,6 +26,7 @@ from .kinematics import positions
 from .params import Params
 
 __all__ = [
+    "response_plot",
     "OKABE_ITO",
     "PALETTE",
     "LINK_COLORS",
@@ -424,4 +425,30 @@ def campbell_plot(data, ax=None, *, mark: bool = True, effective: bool = True, l
     ax.set_ylabel(LABELS["frequency"])
     if legend is not None:
         legend_outside(ax, legend)
+    return ax
+
+
+def response_plot(response, links=None, direction: str = "transverse", ax=None, **kwargs):
+    r"""Draw the midpoint displacements of ``links`` of a response, in micrometres, against the
+    crank angle.
+
+    ``response.plot()`` calls it.  ``response`` is anything with ``params``, ``method``,
+    ``crank_angle_deg`` and ``midpoint_mm`` (a :class:`fivebar.response.Response`, a
+    :class:`fivebar.steady.SteadyState`, a :class:`fivebar.multibody.MultibodySteadyState`);
+    ``links`` default to the description's couplers (L2 and L3 of the five-bar, as Figure 6);
+    ``direction`` as :meth:`fivebar.response.Response.midpoint_mm`; ``kwargs`` go to
+    ``Axes.plot``.  Returns the matplotlib Axes.
+    """
+    import matplotlib.pyplot as plt
+
+    linkage = response.params.linkage
+    links = tuple(linkage.couplers) if links is None else (links,) if isinstance(links, str) else tuple(links)
+    if ax is None:
+        _, ax = plt.subplots(figsize=figsize())
+    x = response.crank_angle_deg
+    for link in links:
+        ax.plot(x, 1e3 * response.midpoint_mm(link, direction), label=f"{link} ({response.method})", **kwargs)
+    ax.set_xlabel(LABELS["crank_angle"])
+    ax.set_ylabel(f"midpoint, {direction} ($\\mu$m)")
+    ax.legend()
     return ax

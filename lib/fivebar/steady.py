@@ -39,7 +39,6 @@ at 300 r/min one or two periods per S, none of them with a monodromy matrix.
 
 from __future__ import annotations
 
-import functools
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
@@ -51,15 +50,14 @@ from numpy.typing import NDArray
 from .errors import FivebarError, InputError, array, number
 from .dynamics import LinkageDynamics
 from .eigen import frozen_modes
-from .elements import shape_functions
 from .newmark import NewtonConvergenceError, Scheme, integrate
 from .params import Params
+from .response import Response
 from .setup import Setup, as_setup, default_scheme, min_steps_per_period, scheme_name
 
 __all__ = ["DEFLECTION_LIMIT", "SteadyState", "SteadyStateError", "ValidityWarning", "march", "shooting",
            "steady_state"]
 
-_DIRECTIONS = ("transverse", "longitudinal", "chord")
 #: bounds of the iteration limits: :func:`march` periods, :func:`shooting` Newton iterations
 MAX_PERIODS, MAX_SHOOTING_ITER = 100_000, 1000
 
@@ -84,8 +82,10 @@ ACCURACY_LIMIT = 0.01
 
 
 @dataclass
-class SteadyState:
-    """One steady period of the linkage's elastic response.
+class SteadyState(Response):
+    """One steady period of the linkage's elastic response: a :class:`fivebar.response.Response`
+    (``t``, ``u``, ``v``, ``dynamics``, ``midpoint_mm``, ``deflection_mm``, ``peak_to_peak_mm``,
+    ``bending_stress``, ``plot``) with the data of the periodic orbit.
 
     Attributes
     ----------
@@ -96,30 +96,26 @@ class SteadyState:
     u, v
         Elastic displacements and velocities of the linkage subsystem, (S + 1, n) (SI).
     method
-        "shooting" or "march".
-    scheme
-        The time integrator used.
+        "shooting", "march" or "continuation".
     periods
         Periods integrated (march: to reach the tolerance; shooting: in all, Newton included;
         not the one that computes the Floquet multipliers of a nonlinear orbit when asked).
+    residual
+        The relative periodicity residual (shooting) or change over the last period (march),
+        energy norm.
     accuracy
         With ``steady_state(..., tol=...)``: the tolerance asked for, the S compared and the
         estimated error of the midpoint deflections (see :func:`steady_state`); else None.
+    scheme
+        The time integrator used.
+    setup
+        The set-up solved (None when a LinkageDynamics was given directly).
     """
 
-    dynamics: LinkageDynamics
-    t: NDArray
-    u: NDArray
-    v: NDArray
-    method: str
-    periods: int
+    periods: int = 0
     _floquet: Any = field(default=None, repr=False)
     residual: float = float("nan")
-    scheme: Scheme | None = None
     accuracy: dict | None = None
-    _cache: dict = field(default_factory=dict, repr=False)
-    #: the set-up solved (None when a LinkageDynamics was given directly)
-    setup: Setup | None = field(default=None, repr=False)
 
     @property
     def floquet_multipliers(self) -> NDArray | None:
@@ -131,11 +127,6 @@ class SteadyState:
         if callable(self._floquet):
             self._floquet = _multipliers(self._floquet())
         return self._floquet
-
-    @property
-    def crank_angle_deg(self) -> NDArray:
-        """Angle of crank AB (deg) from its initial angle, at the samples."""
-        return np.degrees(self.t * self.dynamics.params.crank_speed)
 
     @property
     def stable(self) -> bool | None:
@@ -252,83 +243,6 @@ class SteadyState:
             out.append(f"S = {est[1][0]} is about {100 * est[0]:.2g} % off S = {est[1][1]} on the midpoint "
                        "deflections of the couplers: give a larger steps_per_period or tol")
         return out
-
-    def _angles(self):
-        return self.dynamics.crank_angles(self.t)
-
-    def midpoint_mm(self, link: str, direction: str = "transverse") -> NDArray:
-        """Elastic displacement of the midpoint of a link over the period (mm).
-
-        Parameters
-        ----------
-        link
-            A link of the description: "L1", "L2", "L3" or "L4" for the five-bar (Figure 6
-            shows L2 and L3).
-        direction
-            "transverse": the midpoint's elastic displacement projected on the link's normal
-            (the left normal of B to C for L2, C to D for L3); it includes the elastic motion
-            of the link's end joints.  "longitudinal": projected on the link's axis.  "chord":
-            the transverse deflection relative to the chord through the link's deflected ends
-            (pure bending, what a mid-span strain gauge senses).
-        """
-        names = self.dynamics.params.linkage.link_names
-        if link not in names:
-            raise InputError(f"link = {link!r} is not allowed: use one of {list(names)}")
-        if direction not in _DIRECTIONS:
-            raise InputError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
-        m = self.dynamics.model
-        q = self._element_displacements()
-        ax, tr = m.link_point(q, link, 0.5)
-        if direction == "longitudinal":
-            return 1e3 * ax
-        if direction == "transverse":
-            return 1e3 * tr
-        _, tr0 = m.link_point(q, link, 0.0)
-        _, tr1 = m.link_point(q, link, 1.0)
-        return 1e3 * (tr - 0.5 * (tr0 + tr1))
-
-    def _element_displacements(self) -> NDArray:
-        """The elements' local DOFs over the period, (S + 1, n_elements, 8), computed once for
-        every midpoint, deflection and stress of this result."""
-        if "q" not in self._cache:
-            self._cache["q"] = self.dynamics.model.element_displacements(self.dynamics.expand(self.u),
-                                                                         *self._angles())
-        return self._cache["q"]
-
-    def peak_to_peak_mm(self, link: str, direction: str = "transverse") -> float:
-        """Peak-to-peak value (mm) of :meth:`midpoint_mm` over the period."""
-        y = self.midpoint_mm(link, direction)
-        return float(y.max() - y.min())
-
-    def bending_stress(self, points: int = 11) -> dict[str, float]:
-        """Peak bending stress (Pa) of each link over the period.
-
-        sigma = E (d/2) abs(w'') with d the in-plane depth of the section (assumption
-        ``bending_depth``), w'' the elastic curvature evaluated at ``points`` points of every
-        element and at every sample of the period.
-        """
-        key = ("stress", points)
-        if key not in self._cache:
-            dyn = self.dynamics
-            m, p = dyn.model, dyn.params
-            q = self._element_displacements()  # (S+1, nel, 8)
-            out: dict[str, float] = {}
-            for i, el in enumerate(m.elements):
-                N2 = _curvature_shapes(el.length, points)
-                kappa = np.abs(q[:, i, :] @ N2.T).max()
-                out[el.link] = max(out.get(el.link, 0.0), p.E * 0.5 * p.bending_depth * kappa)
-            self._cache[key] = out
-        return dict(self._cache[key])
-
-
-@functools.lru_cache(maxsize=64)
-def _curvature_shapes(length: float, points: int) -> NDArray:
-    """Second derivatives of the shape functions at ``points`` points of an element, the
-    axial DOFs zeroed (read-only; the same for every result of a mesh)."""
-    N2 = shape_functions(np.linspace(0.0, length, points), length, derivative=2)
-    N2[:, [0, 4]] = 0.0
-    N2.flags.writeable = False
-    return N2
 
 
 def _scheme_text(scheme: Scheme | None) -> str:

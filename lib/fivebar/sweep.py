@@ -45,7 +45,8 @@ from .errors import FivebarError, number
 from .newmark import Scheme
 from .params import Params
 from .setup import Setup, as_setup
-from .steady import DEFLECTION_LIMIT, SteadyState, ValidityWarning, shooting
+from .response import quasi_static
+from .steady import DEFLECTION_LIMIT, ValidityWarning, shooting
 
 __all__ = ["SweepError", "SweepInterrupted", "clear_cache", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
 
@@ -186,10 +187,7 @@ def sweep_point(
     links, direction = _check_links(links, direction, setup.params.linkage)
     dyn = setup.dynamics()
     st = shooting(setup)
-    sd = dyn.step_data
-    qs = np.linalg.solve(sd.K, sd.F[..., None])[..., 0]  # K(t)^-1 F(t) at the S steps
-    qs = np.concatenate([qs, qs[:1]])
-    quasi = SteadyState(dyn, st.t, qs, np.zeros_like(qs), "quasi-static", 0)
+    quasi = quasi_static(dyn)  # K(t)^-1 F(t) at the S steps
     out = {"speed (r/min)": float(crank_speed_rpm), "crank frequency (Hz)": float(crank_speed_rpm) / 60.0}
     for link in links:
         a, q = st.peak_to_peak_mm(link, direction), quasi.peak_to_peak_mm(link, direction)
@@ -245,7 +243,7 @@ def speed_sweep(
         Links whose midpoint is recorded; ``None``: the description's couplers (the links
         between two pins: L2 and L3 of the five-bar, as Figure 6).
     direction : str
-        As :meth:`fivebar.steady.SteadyState.midpoint_mm` ("transverse", "longitudinal", "chord").
+        As :meth:`fivebar.response.Response.midpoint_mm` ("transverse", "longitudinal", "chord").
     steps_per_period : int, optional
         S of (4.1); default the set-up's (the parameter file's).
     scheme : Scheme, optional
