@@ -59,6 +59,46 @@ def _raw(tex: str) -> nodes.raw:
     return nodes.raw("", tex + "\n", format="latex")
 
 
+#: a longtable whose columns' natural widths add up to more characters than this is set in
+#: wrapping columns of the page's width (a line of the book's text is about 95 characters)
+WIDE_TABLE_CHARS = 90
+
+
+def _fit_columns(table: nodes.table) -> None:
+    """Column widths for a wide longtable, from its content.
+
+    Sphinx sets a longtable without given widths in natural-width columns (``l``), which run
+    off the right edge of the page when the headers are long (chapter 11's ten-column sweep
+    tables lost their last column).  Such a table gets widths proportional to the longest
+    cell of each column, the header counted by its longest word since it may wrap; Sphinx
+    then sets wrapping columns that fill the line (``\\X{w}{total}``).
+    """
+    if "colwidths-given" in table["classes"]:
+        return
+    group = table.next_node(nodes.tgroup)
+    if group is None:
+        return
+    specs = [c for c in group.children if isinstance(c, nodes.colspec)]
+    head = [0] * len(specs)
+    natural = [0] * len(specs)
+    for part in group.children:
+        if not isinstance(part, (nodes.thead, nodes.tbody)):
+            continue
+        for row in part.findall(nodes.row):
+            for k, entry in enumerate(e for e in row.children if isinstance(e, nodes.entry)):
+                if k >= len(specs):
+                    break
+                text = entry.astext().strip()
+                natural[k] = max(natural[k], len(text))
+                words = max((len(w) for w in text.split()), default=0)
+                head[k] = max(head[k], words if isinstance(part, nodes.thead) else len(text))
+    if sum(natural) + 2 * len(specs) <= WIDE_TABLE_CHARS:
+        return
+    for spec, width in zip(specs, head):
+        spec["colwidth"] = max(3, min(width, 40))
+    table["classes"].append("colwidths-given")
+
+
 class PrintedBook(SphinxPostTransform):
     """Numbering, root chapter and web-only pages of the assembled LaTeX document."""
 
@@ -112,6 +152,7 @@ class PrintedBook(SphinxPostTransform):
             if rows <= LONG_TABLE_ROWS or "longtable" in table["classes"]:
                 continue
             table["classes"].append("longtable")
+            _fit_columns(table)
             if table.next_node(nodes.title) is None and table.parent is not None:
                 # LaTeX's longtable steps the table counter and heads its continuation
                 # "Table N - continued" even without a caption, which the HTML does not
