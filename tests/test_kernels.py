@@ -1,4 +1,5 @@
-"""The compiled time loop (fivebar._kernels) against independent references.
+"""The compiled time loop (fivebar._kernels) and the model's compiled force against independent
+references.
 
 References: the vectorised numpy nonlinear force (fivebar.nonlinear), finite differences of the
 compiled force and of the compiled one-period map, numpy's LAPACK solve, the closed-form discrete
@@ -44,41 +45,41 @@ def _start(d, scheme):
 
 
 @pytest.mark.parametrize("measure", STRAIN_MEASURES)
-def test_element_loop_matches_the_vectorised_force(dyn, measure):
-    """The compiled element loop against the vectorised numpy force, for every strain measure
-    (the two implementations of one definition)."""
+def test_compiled_strain_force_matches_the_vectorised_force(dyn, measure):
+    """The model's compiled force, as the compiled loop calls it (step point k, wrapping at S),
+    against the vectorised numpy force, for every strain measure (the two implementations of
+    one definition)."""
     rng = np.random.default_rng(1)
-    Ge, ae, wE, idx, _ = dyn.nonlinear_elements(dyn.step_data)
     nl = NonlinearForce(dyn.model, keep=dyn.keep, strain_measure=measure)
-    ms = nl.measure
+    force, rdata, idata = nl.compiled(*dyn.crank_angles(dyn.t))
     n = dyn.n
     f, K = np.empty(n), np.empty((n, n))
-    for k in (0, 7, 23):
+    for k in (0, 7, 23, dyn.steps + 7):
         u = _state(dyn, rng)
         f_ref, K_ref = nl.evaluate(u, dyn.nonlinear_geometry(k * dyn.dt))
-        kern.nl_force(u, Ge[k], ae[k], wE, idx, ms, f, K, True)
+        force(u, k, rdata, idata, f, K, True)
         assert np.linalg.norm(f_ref) > 0
         assert np.allclose(f, f_ref, rtol=0, atol=1e-12 * np.abs(f_ref).max())
         assert np.allclose(K, K_ref, rtol=0, atol=1e-12 * np.abs(K_ref).max())
         f2 = np.empty(n)
-        kern.nl_force(u, Ge[k], ae[k], wE, idx, ms, f2, K, False)  # force only
+        force(u, k, rdata, idata, f2, K, False)  # force only
         assert np.array_equal(f2, f)
 
 
-def test_element_tangent_is_the_derivative_of_the_element_force(dyn):
+def test_compiled_tangent_is_the_derivative_of_the_compiled_force(dyn):
     rng = np.random.default_rng(2)
-    Ge, ae, wE, idx, ms = dyn.nonlinear_elements(dyn.step_data)
+    force, rdata, idata = dyn.compiled_nonlinear(dyn.step_data)
     n = dyn.n
     u = _state(dyn, rng)
     K = np.empty((n, n))
-    kern.nl_force(u, Ge[3], ae[3], wE, idx, ms, np.empty(n), K, True)
+    force(u, 3, rdata, idata, np.empty(n), K, True)
     fp, fm, dummy = np.empty(n), np.empty(n), np.empty((n, n))
     for j in range(n):
         h = 1e-4 * max(abs(u[j]), 1e-9)
         e = np.zeros(n)
         e[j] = h
-        kern.nl_force(u + e, Ge[3], ae[3], wE, idx, ms, fp, dummy, False)
-        kern.nl_force(u - e, Ge[3], ae[3], wE, idx, ms, fm, dummy, False)
+        force(u + e, 3, rdata, idata, fp, dummy, False)
+        force(u - e, 3, rdata, idata, fm, dummy, False)
         col = (fp - fm) / (2 * h)
         assert np.allclose(K[:, j], col, rtol=0, atol=1e-6 * np.abs(K[:, j]).max() + 1e-300)
 
@@ -258,7 +259,7 @@ def test_python_loop_serves_where_the_kernels_cannot(dyn, monkeypatch):
     monkeypatch.setattr(nm, "_march_python", spy)
     other = nm.PeriodicStepData(dyn.step_data.M[::5], dyn.step_data.C[::5], dyn.step_data.K[::5],
                                 dyn.step_data.F[::5], t0=0.0, period=dyn.period)
-    assert dyn.nonlinear_elements(other) is None
+    assert dyn.compiled_nonlinear(other) is None
     integrate(dyn, np.zeros(dyn.n), np.zeros(dyn.n), 0.0, other.dt, 3, step_data=other)
     assert calls == [1]
     cubic = System(np.eye(2), np.zeros((2, 2)), np.eye(2), nonlinear=lambda u: (u**3, np.diag(3 * u**2)))
