@@ -273,10 +273,11 @@ class Newmark(Scheme):
         return max(abs(tr + math.sqrt(disc)), abs(tr - math.sqrt(disc))) / 2
 
     def __post_init__(self) -> None:
-        g, b = self.gamma, self.beta
-        if not (math.isfinite(g) and math.isfinite(b)):
-            raise UnstableParametersError(
-                f"Newmark parameters must be finite, got gamma={g!r}, beta={b!r}")
+        g = number("gamma", self.gamma, error=UnstableParametersError)
+        b = number("beta", self.beta, error=UnstableParametersError)
+        object.__setattr__(self, "gamma", g)
+        object.__setattr__(self, "beta", b)
+        object.__setattr__(self, "allow_unstable", flag("allow_unstable", self.allow_unstable))
         if b <= 0.0:
             raise UnstableParametersError(
                 f"Newmark beta={b!r} must be > 0 for the implicit scheme (beta = 0 is the explicit "
@@ -318,8 +319,9 @@ class HHT(Scheme):
     alpha: float = -0.05
 
     def __post_init__(self) -> None:
-        a = self.alpha
-        if not (math.isfinite(a) and -1.0 / 3.0 - 1e-15 <= a <= 0.0):
+        a = number("alpha", self.alpha, error=UnstableParametersError)
+        object.__setattr__(self, "alpha", a)
+        if not -1.0 / 3.0 - 1e-15 <= a <= 0.0:
             raise UnstableParametersError(
                 f"HHT alpha={a!r} must lie in [-1/3, 0] (the range where the scheme is second "
                 "order and unconditionally stable); alpha = 0 is the average-acceleration rule"
@@ -362,8 +364,9 @@ class GeneralizedAlpha(Scheme):
     rho_inf: float = 0.8
 
     def __post_init__(self) -> None:
-        r = self.rho_inf
-        if not (math.isfinite(r) and 0.0 <= r <= 1.0):
+        r = number("rho_inf", self.rho_inf, error=UnstableParametersError)
+        object.__setattr__(self, "rho_inf", r)
+        if not 0.0 <= r <= 1.0:
             raise UnstableParametersError(
                 f"generalised-alpha rho_inf={r!r} must lie in [0, 1] (the spectral radius at "
                 "omega dt -> infinity; values above 1 are unstable)"
@@ -412,7 +415,9 @@ def amplification_matrix(scheme: Scheme, omega_dt: float, zeta: float = 0.0) -> 
     -------
     ndarray, shape (3, 3)
     """
+    _check_scheme(scheme)
     W = number("omega_dt", omega_dt, low=0.0)
+    zeta = number("zeta", zeta, low=0.0)
     g, b, am, af = scheme.gamma, scheme.beta, scheme.alpha_m, scheme.alpha_f
     c, k = 2.0 * zeta * W, W * W  # scaled damping and stiffness (dt = 1, m = 1)
     # predictors as rows acting on x = (u, v, a) with dt = 1
@@ -427,7 +432,21 @@ def amplification_matrix(scheme: Scheme, omega_dt: float, zeta: float = 0.0) -> 
     return np.vstack([P_u + b * a1, P_v + g * a1, a1])
 
 
+def _check_scheme(scheme: Any) -> None:
+    if not isinstance(scheme, Scheme):
+        raise InputTypeError(
+            f"scheme = {scheme!r} ({type(scheme).__name__}) is not allowed: give a Newmark, HHT or "
+            "GeneralizedAlpha instance")
+
+
 # --- systems ----------------------------------------------------------------------------------
+def _check_system(system: Any) -> None:
+    for name in ("matrices", "force"):
+        if not callable(getattr(system, name, None)):
+            raise InputTypeError(
+                f"system = {system!r} ({type(system).__name__}) is not allowed: give a second-order "
+                "system with matrices(t) and force(t) (fivebar.newmark.System, or the linkage's dynamics)")
+
 @runtime_checkable
 class SecondOrderSystem(Protocol):
     """What :func:`integrate` needs from a model.
@@ -640,12 +659,17 @@ def consistent_acceleration(system: SecondOrderSystem, t: float, u: ArrayLike,
     ndarray (n,)
         Acceleration.
     """
-    M, C, K = system.matrices(float(t))
-    u, v = np.asarray(u, float), np.asarray(v, float)
-    rhs = np.asarray(system.force(float(t)), float) - C @ v - K @ u
+    _check_system(system)
+    t = number("t", t, unit="s")
+    u = array("u", u)
+    n = u.size
+    u, v = u.ravel(), array("v", v, shape=(n,))
+    M, C, K = (_checked(f"system: {name}(t = {t:.9g} s)", X, (n, n))
+               for name, X in zip("MCK", system.matrices(t)))
+    rhs = _checked(f"system: F(t = {t:.9g} s)", system.force(t), (n,)) - C @ v - K @ u
     nl = getattr(system, "nonlinear", None)
     if nl is not None:
-        rhs = rhs - np.asarray(nl(u, float(t))[0], float)
+        rhs = rhs - _nonlinear_at(nl, u, t, n)[0]
     try:
         return np.linalg.solve(M, rhs)
     except np.linalg.LinAlgError as exc:
@@ -783,15 +807,8 @@ def integrate(
         the time, the residual norm and the iterations), or a singular tangent.
     """
     scheme = GENERIC_SCHEME if scheme is None else scheme
-    if not isinstance(scheme, Scheme):
-        raise InputTypeError(
-            f"scheme = {scheme!r} ({type(scheme).__name__}) is not allowed: give a Newmark, HHT or "
-            "GeneralizedAlpha instance")
-    for name in ("matrices", "force"):
-        if not callable(getattr(system, name, None)):
-            raise InputTypeError(
-                f"system = {system!r} ({type(system).__name__}) is not allowed: give a second-order "
-                "system with matrices(t) and force(t) (fivebar.newmark.System, or the linkage's dynamics)")
+    _check_scheme(scheme)
+    _check_system(system)
     dt = number("dt", dt, low=0.0, low_open=True, unit="s")
     t0 = number("t0", t0, unit="s")
     nsteps = number("nsteps", nsteps, integer=True, low=0)
