@@ -368,7 +368,7 @@ def test_a_fresh_process_loads_the_compiled_loop_from_the_cache(tmp_path):
     own = tmp_path / "numba"
     for name in ("_kernels", "_nonlinear_kernel"):  # a copy of the worktree's cache, if any
         target = own / caching._CacheLocator.get_suitable_cache_subpath(str(lib / f"{name}.py"))
-        target.mkdir(parents=True)
+        target.mkdir(parents=True, exist_ok=True)
         for f in glob.glob(str(lib / "__pycache__" / f"{name}.*.nb[ic]")):
             shutil.copy(f, target)
     code = ("import json, numpy as np\n"

@@ -3,7 +3,7 @@ r"""The linkage's strain force (2.8) compiled: the element loop of :mod:`fivebar
 :func:`force` is the model's nonlinear force in the form the compiled time loop takes it
 (``fivebar._kernels.FORCE_SIG``: ``force(u, k, rdata, idata, f, Kt, tangent)``), its data in
 two flat arrays made by :func:`pack` from the element geometry sampled at the S step times of
-a period (:meth:`fivebar.nonlinear.NonlinearForce.compiled`).  :func:`element_force` is the
+a period (:meth:`fivebar.nonlinear.NonlinearForce.compiled`).  :func:`element_loop` is the
 element loop at one configuration; the tests hold it equal to the vectorised numpy force of
 :mod:`fivebar.nonlinear` to round-off, for every strain measure.  Loaded (and cached on disk)
 by :func:`fivebar._jitcache.import_cached`.
@@ -16,11 +16,11 @@ from numba import njit
 
 from ._kernels import FORCE_SIG
 
-__all__ = ["element_force", "force", "pack"]
+__all__ = ["element_loop", "force", "pack"]
 
 
 @njit(cache=True)
-def element_force(u, Ge, ae, wE, idx, measure, f, Kt, tangent):
+def element_loop(u, Ge, ae, wE, idx, measure, f, Kt, tangent):
     r"""Internal nonlinear force ``f`` (n,) and, if ``tangent``, its Jacobian ``Kt`` (n, n),
     element by element: the loop form of ``fivebar.nonlinear._force`` (see
     :mod:`fivebar.nonlinear` for the formulas), at one configuration.
@@ -133,13 +133,13 @@ def force(u, k, rdata, idata, f, Kt, tangent):
     ae = rdata[o1:o2].reshape((S, nel, 8))
     wE = rdata[o2:o2 + nel * npts].reshape((nel, npts))
     s = k % S
-    element_force(u, Ge[s], ae[s], wE, idx, measure, f, Kt, tangent)
+    element_loop(u, Ge[s], ae[s], wE, idx, measure, f, Kt, tangent)
 
 
 def pack(Ge, ae, wE, idx, measure: int) -> tuple[np.ndarray, np.ndarray]:
     """``(rdata, idata)`` for :func:`force`: slope rows ``Ge`` (S, n_el, n_gauss, 8) and stretch
     rows ``ae`` (S, n_el, 8) at the S step points, weights ``wE`` (n_el, n_gauss), element DOF
-    indices ``idx`` (n_el, 8) and the strain measure's index (as :func:`element_force`)."""
+    indices ``idx`` (n_el, 8) and the strain measure's index (as :func:`element_loop`)."""
     S, nel, npts, _ = Ge.shape
     rdata = np.concatenate([np.ravel(Ge), np.ravel(ae), np.ravel(wE)]).astype(float)
     idata = np.concatenate([[S, nel, npts, measure], np.ravel(idx)]).astype(np.int64)

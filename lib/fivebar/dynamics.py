@@ -352,7 +352,7 @@ class LinkageDynamics:
         :class:`fivebar.newmark.SecondOrderSystem`): ``(force, rdata, idata)`` of
         :meth:`fivebar.nonlinear.NonlinearForce.compiled`, sampled at the S step times; None when
         the model is linear or ``step_data`` does not sample this model's period at its step
-        times (then the Python loop serves, with :attr:`nonlinear`).
+        times (then the Python loop serves, with ``nonlinear``).
         """
         sd = step_data
         if (self._nl is None or sd is None or sd.steps != self.steps or sd.t0 != 0.0

@@ -276,7 +276,7 @@ class NonlinearForce:
         (..., n_el, 8) in the element's global DOFs, at crank angles (rad) of any common shape.
 
         With :attr:`element_dofs` and :attr:`element_weights` they are what the compiled
-        element loop (``fivebar._nonlinear_kernel.element_force``) needs.
+        element loop (``fivebar._nonlinear_kernel.element_loop``) needs.
         """
         m = self.model
         betas = np.stack(np.broadcast_arrays(*m.element_angles(link_angles(m.params, *theta))), axis=-1)
