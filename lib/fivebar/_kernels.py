@@ -245,7 +245,8 @@ def inertia_mass(c, M, Mp, constant, Mb):
 def predict(c, Mb, x, w):
     """Predictors (4.3), (4.2) without the new acceleration, into ``w[UT]``, ``w[VT]``; the
     first iterate ``u_{n+1}`` with ``a_{n+1} = a_n`` into ``w[U1]``; the alpha history
-    ``alpha_m Mb a_n + alpha_f g_n`` into ``w[HIST]`` (zero for Newmark)."""
+    ``alpha_m Mb a_n + alpha_f g_n`` into ``w[HIST]`` (for Newmark it stays as it is made:
+    zero)."""
     n = x.shape[1]
     dt, c_up, c_vp, bdt2 = c[DT], c[C_UP], c[C_VP], c[BDT2]
     u, v, a, g = x[0], x[1], x[2], x[3]
@@ -260,9 +261,6 @@ def predict(c, Mb, x, w):
         am, af = c[AM], c[AF]
         for i in range(n):
             hist[i] = am * Ma[i] + af * g[i]
-    else:
-        for i in range(n):
-            hist[i] = 0.0
 
 
 @njit(cache=True, inline="always")
@@ -277,12 +275,12 @@ def corrector(c, w):
 
 
 @njit(cache=True, inline="always")
-def residual(c, Mb, C, K, F, fnl, w, from_u):
+def residual(c, Mb, C, K, F, fnl, w, from_u, with_ref=True):
     """The residual of the equation at the new time, (4.4) or its alpha form, into ``w[R]``:
     ``(1-am) Mb a + (1-af)(C v + K u + f_nl - F) + hist``.  The iterate's acceleration comes
     from ``w[U1]`` (:func:`corrector`) if ``from_u``, else it is the one in ``w[A1]`` (the
     linear step's, ``a_n``).  Returns ``(|R|, ref)``, ``ref`` the sum of the norms of its terms
-    (the scale of the Newton test)."""
+    (the scale of the Newton test; with ``with_ref`` False, for the linear step, both 0)."""
     if from_u:
         corrector(c, w)
     else:
@@ -296,6 +294,8 @@ def residual(c, Mb, C, K, F, fnl, w, from_u):
     am, af = c[AM], c[AF]
     for i in range(Rw.size):
         Rw[i] = (1.0 - am) * Ma[i] + (1.0 - af) * (Cv[i] + Ku[i] + fnl[i] - F[i]) + hist[i]
+    if not with_ref:
+        return 0.0, 0.0
     ref = (1.0 - am) * nrm2(Ma) + (1.0 - af) * (nrm2(Cv) + nrm2(Ku) + nrm2(fnl) + nrm2(F))
     if is_alpha(c):
         ref += nrm2(hist)
@@ -355,7 +355,7 @@ def linear_step(c, Mb, C, K, F, fnl, x, w, LUc, pivc, have, i):
     a, a1 = x[2], w[A1]
     for k in range(a.size):
         a1[k] = a[k]
-    residual(c, Mb, C, K, F, fnl, w, False)
+    residual(c, Mb, C, K, F, fnl, w, False, False)
     ok, dmin, dmax = linear_lu(c, Mb, C, K, LUc, pivc, have, i)
     if ok:
         correct(LUc[i], pivc[i], w)
