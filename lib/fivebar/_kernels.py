@@ -220,13 +220,13 @@ def coefficients(gamma, beta, alpha_m, alpha_f, dt):
     return c
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def is_alpha(c):
     """True for a scheme with alpha terms (HHT, generalised-alpha), False for Newmark."""
     return not (c[AM] == 0.0 and c[AF] == 0.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def inertia_mass(c, M, Mp, constant, Mb):
     """The mass of the inertia term: ``M`` (``M_{n+1}``) if it is ``constant`` in time or the
     scheme has no ``alpha_f``, else ``(1 - alpha_f) M + alpha_f Mp`` (into ``Mb``), the mass at
@@ -241,7 +241,7 @@ def inertia_mass(c, M, Mp, constant, Mb):
     return Mb
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def predict(c, Mb, x, w):
     """Predictors (4.3), (4.2) without the new acceleration, into ``w[UT]``, ``w[VT]``; the
     first iterate ``u_{n+1}`` with ``a_{n+1} = a_n`` into ``w[U1]``; the alpha history
@@ -263,7 +263,7 @@ def predict(c, Mb, x, w):
             hist[i] = am * Ma[i] + af * g[i]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def corrector(c, w):
     """(4.2)-(4.3) solved for the new acceleration and velocity of the iterate ``w[U1]``:
     ``a = (u - u~) / (beta dt^2)`` into ``w[A1]``, ``v = v~ + gamma dt a`` into ``w[V1]``."""
@@ -274,7 +274,7 @@ def corrector(c, w):
         v1[i] = vt[i] + gdt * a1[i]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def residual(c, Mb, C, K, F, fnl, w, from_u, with_ref=True):
     """The residual of the equation at the new time, (4.4) or its alpha form, into ``w[R]``:
     ``(1-am) Mb a + (1-af)(C v + K u + f_nl - F) + hist``.  The iterate's acceleration comes
@@ -302,14 +302,14 @@ def residual(c, Mb, C, K, F, fnl, w, from_u, with_ref=True):
     return nrm2(Rw), ref
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def converged(rn, ref, du_norm, w, tol):
     """The Newton test: ``|R| <= rtol ref + atol`` or ``|du| <= xtol |u|``, ``tol`` =
     ``(rtol, xtol, atol)``."""
     return rn <= tol[0] * ref + tol[2] or du_norm <= tol[1] * nrm2(w[U1])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def correct(LU, piv, w):
     """The Newton update ``u -= S^-1 R`` of the iterate ``w[U1]`` (``w[R]`` receives the
     increment); returns ``|du|``."""
@@ -322,7 +322,7 @@ def correct(LU, piv, w):
     return math.sqrt(s)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def tangent_lu(c, Mb, C, K, Kt, with_kt, St, piv):
     """The step tangent ``cM Mb + cC C + cK (K [+ Kt])`` into ``St``, factorised in place;
     returns ``(ok, dmin, dmax)``, ``ok`` False if singular."""
@@ -336,7 +336,7 @@ def tangent_lu(c, Mb, C, K, Kt, with_kt, St, piv):
     return not singular(dmin, dmax), dmin, dmax
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def linear_lu(c, Mb, C, K, LUc, pivc, have, i):
     """The LU of the linear tangent (without ``K_t``) in slot ``i`` of the cache ``LUc, pivc,
     have``, made if the slot is empty; returns ``(ok, dmin, dmax)``."""
@@ -348,7 +348,7 @@ def linear_lu(c, Mb, C, K, LUc, pivc, have, i):
     return ok, dmin, dmax
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def linear_step(c, Mb, C, K, F, fnl, x, w, LUc, pivc, have, i):
     """The step of a linear system, one solve from the predictor: ``w[U1]`` becomes
     ``u_{n+1}``; the tangent's LU is slot ``i`` of the cache.  Returns ``(ok, dmin, dmax)``."""
@@ -362,7 +362,7 @@ def linear_step(c, Mb, C, K, F, fnl, x, w, LUc, pivc, have, i):
     return ok, dmin, dmax
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def finish(c, C, K, F, fnl, x, w):
     """End of the step at the converged ``w[U1]``: its velocity and acceleration
     (:func:`corrector`), the alpha history ``g_{n+1} = C v + K u + f_nl - F``, the new state
@@ -382,7 +382,7 @@ def finish(c, C, K, F, fnl, x, w):
         x[2, i] = a1[i]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def sensitivity(c, LU, piv, Mb, C, Kp, Cp, Kt, Ktp, nonlin, P, PW):
     """The step Jacobian applied to the blocks ``P`` (3, n, m), in place (``PW`` (6, n, m)
     work): the linearised step with the converged tangent's LU (``LU, piv``), ``Kp, Cp`` and
