@@ -1,4 +1,5 @@
-"""The compiled time loop (fivebar._kernels) against independent references.
+"""The compiled time loop (fivebar._kernels) and the model's compiled force against independent
+references.
 
 References: the vectorised numpy nonlinear force (fivebar.nonlinear), finite differences of the
 compiled force and of the compiled one-period map, numpy's LAPACK solve, the closed-form discrete
@@ -44,41 +45,41 @@ def _start(d, scheme):
 
 
 @pytest.mark.parametrize("measure", STRAIN_MEASURES)
-def test_element_loop_matches_the_vectorised_force(dyn, measure):
-    """The compiled element loop against the vectorised numpy force, for every strain measure
-    (the two implementations of one definition)."""
+def test_compiled_strain_force_matches_the_vectorised_force(dyn, measure):
+    """The model's compiled force, as the compiled loop calls it (step point k, wrapping at S),
+    against the vectorised numpy force, for every strain measure (the two implementations of
+    one definition)."""
     rng = np.random.default_rng(1)
-    Ge, ae, wE, idx, _ = dyn.nonlinear_elements(dyn.step_data)
     nl = NonlinearForce(dyn.model, keep=dyn.keep, strain_measure=measure)
-    ms = nl.measure
+    force, rdata, idata = nl.compiled(*dyn.crank_angles(dyn.t))
     n = dyn.n
     f, K = np.empty(n), np.empty((n, n))
-    for k in (0, 7, 23):
+    for k in (0, 7, 23, dyn.steps + 7):
         u = _state(dyn, rng)
         f_ref, K_ref = nl.evaluate(u, dyn.nonlinear_geometry(k * dyn.dt))
-        kern.nl_force(u, Ge[k], ae[k], wE, idx, ms, f, K, True)
+        force(u, k, rdata, idata, f, K, True)
         assert np.linalg.norm(f_ref) > 0
         assert np.allclose(f, f_ref, rtol=0, atol=1e-12 * np.abs(f_ref).max())
         assert np.allclose(K, K_ref, rtol=0, atol=1e-12 * np.abs(K_ref).max())
         f2 = np.empty(n)
-        kern.nl_force(u, Ge[k], ae[k], wE, idx, ms, f2, K, False)  # force only
+        force(u, k, rdata, idata, f2, K, False)  # force only
         assert np.array_equal(f2, f)
 
 
-def test_element_tangent_is_the_derivative_of_the_element_force(dyn):
+def test_compiled_tangent_is_the_derivative_of_the_compiled_force(dyn):
     rng = np.random.default_rng(2)
-    Ge, ae, wE, idx, ms = dyn.nonlinear_elements(dyn.step_data)
+    force, rdata, idata = dyn.compiled_nonlinear(dyn.step_data)
     n = dyn.n
     u = _state(dyn, rng)
     K = np.empty((n, n))
-    kern.nl_force(u, Ge[3], ae[3], wE, idx, ms, np.empty(n), K, True)
+    force(u, 3, rdata, idata, np.empty(n), K, True)
     fp, fm, dummy = np.empty(n), np.empty(n), np.empty((n, n))
     for j in range(n):
         h = 1e-4 * max(abs(u[j]), 1e-9)
         e = np.zeros(n)
         e[j] = h
-        kern.nl_force(u + e, Ge[3], ae[3], wE, idx, ms, fp, dummy, False)
-        kern.nl_force(u - e, Ge[3], ae[3], wE, idx, ms, fm, dummy, False)
+        force(u + e, 3, rdata, idata, fp, dummy, False)
+        force(u - e, 3, rdata, idata, fm, dummy, False)
         col = (fp - fm) / (2 * h)
         assert np.allclose(K[:, j], col, rtol=0, atol=1e-6 * np.abs(K[:, j]).max() + 1e-300)
 
@@ -258,9 +259,142 @@ def test_python_loop_serves_where_the_kernels_cannot(dyn, monkeypatch):
     monkeypatch.setattr(nm, "_march_python", spy)
     other = nm.PeriodicStepData(dyn.step_data.M[::5], dyn.step_data.C[::5], dyn.step_data.K[::5],
                                 dyn.step_data.F[::5], t0=0.0, period=dyn.period)
-    assert dyn.nonlinear_elements(other) is None
+    assert dyn.compiled_nonlinear(other) is None
     integrate(dyn, np.zeros(dyn.n), np.zeros(dyn.n), 0.0, other.dt, 3, step_data=other)
     assert calls == [1]
     cubic = System(np.eye(2), np.zeros((2, 2)), np.eye(2), nonlinear=lambda u: (u**3, np.diag(3 * u**2)))
     integrate(cubic, [0.1, 0.0], [0.0, 0.0], 0.0, 0.1, 3)
     assert calls == [1, 1]
+
+
+@pytest.mark.parametrize("scheme", [Newmark(), HHT(-0.1), GeneralizedAlpha(0.7)],
+                         ids=["newmark", "hht", "galpha"])
+def test_compiled_generic_system_matches_the_python_loop(scheme, monkeypatch):
+    """A generic linear system (not the linkage): the compiled loop on the time-invariant
+    System and the Python loop on the same matrices given as functions of time, with the
+    sensitivity, agree to round-off."""
+    rng = np.random.default_rng(11)
+    n = 5
+    A = rng.standard_normal((n, n))
+    M, K = A @ A.T / n + np.eye(n), 30.0 * (A.T @ A / n + np.eye(n))
+    C = 0.01 * K
+    F = lambda t: np.sin(3 * t) * np.arange(1, n + 1)  # noqa: E731
+    u0, v0 = np.linspace(1.0, -1.0, n), np.zeros(n)
+    calls = []
+    real = nm._march_python
+    monkeypatch.setattr(nm, "_march_python", lambda *a, **k: (calls.append(1), real(*a, **k)))
+    sens = "uv" if scheme.is_newmark else "uva"
+    a = integrate(System(M, C, K, force=F), u0, v0, 0.0, 0.01, 300, scheme, sensitivity=sens)
+    assert not calls  # compiled
+    b = integrate(System(lambda t: M, lambda t: C, lambda t: K, force=F), u0, v0, 0.0, 0.01, 300,
+                  scheme, sensitivity=sens)
+    assert calls == [1]  # Python
+    assert np.abs(a.u - b.u).max() <= 1e-12 * np.abs(a.u).max()
+    assert np.abs(a.monodromy - b.monodromy).max() <= 1e-12 * np.abs(a.monodromy).max()
+
+
+class _CubicSprings(System):
+    """u'' + c u' + K(t) u + k3 u^3 = F(t) with the cubic force also given compiled, in the
+    form the compiled loop takes (``compiled_nonlinear``): a user's nonlinear model, not the
+    beam's."""
+
+    def __init__(self, k3, force):
+        n = k3.size
+        self.k3 = k3
+        super().__init__(np.eye(n), 0.05 * np.eye(n), lambda t: np.diag(2.0 + np.cos(2 * t) * np.ones(n)),
+                         force=force, nonlinear=lambda u: (k3 * u**3, np.diag(3 * k3 * u**2)))
+
+    def compiled_nonlinear(self, step_data):
+        return _CUBIC, self.k3.copy(), np.zeros(1, np.int64)
+
+
+def _cubic(u, k, rdata, idata, f, Kt, tangent):
+    for i in range(u.size):
+        f[i] = rdata[i] * u[i] ** 3
+    if tangent:
+        for i in range(u.size):
+            for j in range(u.size):
+                Kt[i, j] = 3.0 * rdata[i] * u[i] ** 2 if i == j else 0.0
+
+
+_CUBIC = __import__("numba").njit(kern.FORCE_SIG)(_cubic)
+
+
+@pytest.mark.parametrize("scheme", [Newmark(), GeneralizedAlpha(0.8)], ids=["newmark", "galpha"])
+@pytest.mark.parametrize("newton", ["full", "modified"])
+def test_a_users_compiled_force_drives_the_compiled_loop(scheme, newton, monkeypatch):
+    """The compiled loop calls whatever force the system hands it: a cubic spring written by a
+    user (no beam) gives the Python loop's march with the same force as a Python function, to
+    round-off, with the sensitivity; a broken compiled force (twice the force) is caught."""
+    sysm = _CubicSprings(np.array([4.0, 1.0, 9.0]), lambda t: np.sin(2 * t) * np.array([1.0, 0.5, -0.3]))
+    S = 60
+    sd = nm.PeriodicStepData.from_system(sysm, 0.0, np.pi, S)
+    u0, v0 = np.array([0.3, -0.2, 0.1]), np.zeros(3)
+    sens = "uv" if scheme.is_newmark else "uva"
+    kw = dict(step_data=sd, newton=newton, sensitivity=sens, max_iter=50)
+    calls = []
+    real = nm._march_python
+    monkeypatch.setattr(nm, "_march_python", lambda *a, **k: (calls.append(1), real(*a, **k)))
+    res = integrate(sysm, u0, v0, 0.0, sd.dt, 2 * S + 7, scheme, **kw)
+    assert not calls
+    monkeypatch.setattr(nm, "_USE_KERNELS", False)
+    ref = integrate(sysm, u0, v0, 0.0, sd.dt, 2 * S + 7, scheme, **kw)
+    assert calls == [1]
+    assert np.abs(res.u - ref.u).max() <= 1e-12 * np.abs(ref.u).max()
+    assert np.abs(res.monodromy - ref.monodromy).max() <= 1e-10 * np.abs(ref.monodromy).max()
+    assert np.abs(res.u).max() > 0.1  # a real motion, the cubic term at work
+    monkeypatch.setattr(nm, "_USE_KERNELS", True)
+    wrong = _CubicSprings(sysm.k3, sysm._force)
+    wrong.compiled_nonlinear = lambda sd: (_CUBIC, 2.0 * sysm.k3, np.zeros(1, np.int64))
+    bad = integrate(wrong, u0, v0, 0.0, sd.dt, 2 * S + 7, scheme, **kw)
+    assert np.abs(bad.u - ref.u).max() > 1e-3 * np.abs(ref.u).max()
+
+
+def test_a_fresh_process_loads_the_compiled_loop_from_the_cache(tmp_path):
+    """The loop takes the force as a first-class function; its explicit signature keeps the
+    cached loop valid in a new process: a second process compiles nothing (numba's own
+    counters), for the loop, a piece of the step called by the Python loop and the beam's force.  (Typed by the dispatcher
+    it is given, the loop would miss the cache in every process.)"""
+    import glob
+    import os
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from numba.core import caching
+
+    lib = Path(nm.__file__).parent
+    own = tmp_path / "numba"
+    for name in ("_kernels", "_nonlinear_kernel"):  # a copy of the worktree's cache, if any
+        target = own / caching._CacheLocator.get_suitable_cache_subpath(str(lib / f"{name}.py"))
+        target.mkdir(parents=True, exist_ok=True)
+        for f in glob.glob(str(lib / "__pycache__" / f"{name}.*.nb[ic]")):
+            shutil.copy(f, target)
+    code = ("import json, numpy as np\n"
+            "import fivebar.newmark as nm\n"
+            "from fivebar import load_params\n"
+            "from fivebar.dynamics import LinkageDynamics\n"
+            "from fivebar._jitcache import import_cached\n"
+            "for nonlinear in (False, True):\n"
+            "    d = LinkageDynamics(load_params(), steps_per_period=100, nonlinear=nonlinear)\n"
+            "    nm.integrate(d, np.zeros(d.n), np.zeros(d.n), 0.0, d.dt, 3, step_data=d.step_data,\n"
+            "                 sensitivity=True)\n"
+            "cubic = nm.System(np.eye(2), np.eye(2), np.eye(2), nonlinear=lambda u: (u**3, np.diag(3 * u**2)))\n"
+            "nm.integrate(cubic, [0.1, 0.0], [0.0, 0.0], 0.0, 0.1, 3)  # the Python loop\n"
+            "k, f = nm._kernels(), import_cached('fivebar._nonlinear_kernel')\n"
+            "out = {}\n"
+            "for name, disp in [('march', k.march), ('predict', k.predict), ('force', f.force)]:\n"
+            "    s = disp.stats\n"
+            "    out[name] = [sum(s.cache_hits.values()), sum(s.cache_misses.values())]\n"
+            "print(json.dumps(out))\n")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(own))
+    env.pop("NUMBA_CACHE_LOCATOR_CLASSES", None)
+    runs = []
+    for _ in range(2):
+        r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                           timeout=1500)
+        assert r.returncode == 0, r.stderr
+        runs.append(__import__("json").loads(r.stdout.splitlines()[-1]))
+    for name, (hits, misses) in runs[1].items():
+        assert hits >= 1 and misses == 0, (name, runs)

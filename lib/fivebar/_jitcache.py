@@ -157,7 +157,11 @@ def import_cached(name: str) -> ModuleType:
 
     Every numba dispatcher among the module's attributes gets the cache described in the
     module docstring (before its first call; a dispatcher already compiled keeps its code).
-    Importing again returns the module as it is.
+    The module's ``__jit_signatures__`` (a dict: function name -> signatures), if any, are
+    then compiled (or loaded from the cache) and those functions compile nothing else: an
+    explicit signature is what keeps the type of a first-class function argument the same
+    from one process to the next (a function typed by the dispatcher it was given would be
+    compiled again in every process).  Importing again returns the module as it is.
     """
     user = config.CACHE_LOCATOR_CLASSES
     # numba picks a location per function when the module is imported and again when the
@@ -171,4 +175,11 @@ def import_cached(name: str) -> ModuleType:
                 value._cache = _HealingCache(value.py_func)
     finally:
         config.CACHE_LOCATOR_CLASSES = user
+    for fname, sigs in getattr(mod, "__jit_signatures__", {}).items():
+        dispatcher = getattr(mod, fname)
+        if not dispatcher._can_compile:  # done by an earlier import
+            continue
+        for sig in sigs:
+            dispatcher.compile(sig)
+        dispatcher.disable_compile()
     return mod

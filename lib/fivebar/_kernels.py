@@ -1,18 +1,38 @@
-r"""Compiled kernels of the time loop (numba): the Newmark / HHT / generalised-alpha step with
-Newton iterations, dense LU of the small step matrices, the nonlinear element force and tangent
-element by element, and the propagation of the step Jacobians (monodromy).
+r"""The time step of :mod:`fivebar.newmark`, written once (numba), and the compiled time loop.
 
-They implement exactly the algorithm of :func:`fivebar.newmark.integrate` (its docstring gives
-the equations, (4.2)-(4.4) of the paper and their generalised-alpha form); this module only
-removes the interpreter from the inner loop.  :mod:`fivebar.newmark` decides when they serve
-(periodic step data or a time-invariant system, a linear model or a nonlinear force that supplies
-its element data) and keeps the Python loop for a generic system with Python callbacks.
+The step of the Newmark / HHT / generalised-alpha schemes ((4.2)-(4.4) of the paper and their
+generalised-alpha form; :mod:`fivebar.newmark`'s docstring gives the equations) is a handful
+of compiled functions: the scheme's :func:`coefficients`, the predictor with the alpha history
+(:func:`predict`), the corrector's residual and its reference norm (:func:`residual`), the
+Newton test and update (:func:`converged`, :func:`correct`), the step tangent and its LU
+(:func:`tangent_lu`, :func:`linear_lu`), the end of the step (:func:`finish`: corrector,
+history of the alpha schemes, new state) and the propagation of the step Jacobians
+(:func:`sensitivity`).  Two loops call them: :func:`march` here, compiled, where the data
+allow it (per-step matrices in arrays, a linear system or a nonlinear force given as a
+compiled function), and the Python loop of :func:`fivebar.newmark.integrate` for a generic
+system whose matrices or nonlinear force are Python callbacks.  Neither loop holds a formula of
+the step of its own.
 
-Compiled functions are cached on disk (``cache=True``), in ``__pycache__`` beside this file or,
-where that is not writable (a read-only install), in numba's fallback user-wide cache directory;
-set ``NUMBA_CACHE_DIR`` to choose another place.  The time loop's work arrays are made once
-per call (the element loop's four small ones per evaluation), matrix-vector products and
-norms are plain loops (no temporaries); the products with the sensitivity blocks call BLAS.
+The nonlinear force of the compiled loop is the model's: a compiled function of the signature
+:data:`FORCE_SIG`, ``force(u, k, rdata, idata, f, Kt, tangent)``, passed to :func:`march` as a
+first-class function with the model's data in two flat arrays (``rdata`` floats, ``idata``
+integers: the function unpacks them), which fills ``f`` (n,) with the force at the state
+``u`` and step point ``k`` and, if ``tangent``, ``Kt`` (n, n) with its Jacobian.  This module
+knows nothing of the model (the linkage's strain force is ``fivebar._nonlinear_kernel``).
+
+The state is one array ``x`` (4, n): displacement, velocity, acceleration and the alpha
+schemes' force history :math:`\mathbf g_n = \mathbf C\dot{\mathbf u} + \mathbf K\mathbf u
++ \mathbf f_{nl} - \mathbf F` at :math:`t_n`; the step's vectors are the rows of one work
+array ``w`` (:data:`NWORK`, n) (rows :data:`UT` ... :data:`HIST`); the sensitivity blocks are
+``P`` (3, n, m), :math:`\partial(\mathbf u, \dot{\mathbf u}, \ddot{\mathbf u})_n/\partial
+\mathbf x_0` times ``m`` directions.  The functions work in place on these and allocate nothing
+(matrix-vector products and norms are loops; the products with the sensitivity blocks call
+BLAS).
+
+Compiled functions are cached on disk (``cache=True``) by :mod:`fivebar._jitcache`, which
+compiles the signatures of :data:`__jit_signatures__` when it loads the module (the compiled
+loop takes the force as a first-class function, whose type only an explicit signature keeps
+the same from one process to the next: a cached loop is then found again).
 
 Status codes returned by :func:`march` (the caller raises the matching error):
 0 converged, 1 residual not finite, 2 Newton did not converge in ``max_iter``, 3 singular tangent.
@@ -23,10 +43,21 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 OK, NOT_FINITE, NO_CONVERGENCE, SINGULAR = 0, 1, 2, 3
 
+#: Entries of the scheme's coefficient array (:func:`coefficients`).
+DT, BDT2, GDT, C_UP, C_VP, AM, AF, CM, CC, CK = range(10)
+#: Rows of the step's work array: predictors, iterate, its velocity and acceleration, residual,
+#: the three products of the residual and the alpha history.
+UT, VT, U1, V1, A1, R, MA, CV, KU, HIST = range(10)
+NWORK = 10
+
+_f1, _f2, _f3, _i1, _i2 = (types.float64[::1], types.float64[:, ::1], types.float64[:, :, ::1],
+                           types.int64[::1], types.int64[:, ::1])
+#: Signature of a model's compiled nonlinear force: ``force(u, k, rdata, idata, f, Kt, tangent)``.
+FORCE_SIG = types.void(_f1, types.int64, _f1, _i1, _f1, _f2, types.boolean)
 
 # --- small dense linear algebra -----------------------------------------------------------------
 @njit(cache=True)
@@ -75,8 +106,7 @@ def lu_factor(A, piv):
 
 @njit(cache=True)
 def singular(dmin, dmax):
-    """The test of :func:`fivebar.newmark._factor`: a pivot below 1e-14 of the largest, or
-    not finite."""
+    """A pivot below 1e-14 of the largest, or not finite: the step tangent is singular."""
     return not (dmin > 1e-14 * dmax) or not math.isfinite(dmax)
 
 
@@ -169,353 +199,344 @@ def nrm2(x):
     return math.sqrt(s)
 
 
-# --- nonlinear element force and tangent (fivebar.nonlinear) ------------------------------------
+# --- the step, written once ---------------------------------------------------------------------
 @njit(cache=True)
-def nl_force(u, Ge, ae, wE, idx, measure, f, Kt, tangent):
-    r"""Internal nonlinear force ``f`` (n,) and, if ``tangent``, its Jacobian ``Kt`` (n, n),
-    element by element: the loop form of ``fivebar.nonlinear._force`` (see
-    :mod:`fivebar.nonlinear` for the formulas).
+def coefficients(gamma, beta, alpha_m, alpha_f, dt):
+    """The scheme's constants for the step ``dt`` (entries :data:`DT` ... :data:`CK`): the
+    predictor's ``dt^2 (1/2 - beta)`` and ``dt (1 - gamma)``, the corrector's ``beta dt^2`` and
+    ``gamma dt``, the alpha weights and the weights of M, C, K in the step tangent."""
+    c = np.empty(10)
+    bdt2 = beta * dt * dt
+    c[DT] = dt
+    c[BDT2] = bdt2
+    c[GDT] = gamma * dt
+    c[C_UP] = dt * dt * (0.5 - beta)
+    c[C_VP] = dt * (1.0 - gamma)
+    c[AM] = alpha_m
+    c[AF] = alpha_f
+    c[CM] = (1.0 - alpha_m) / bdt2
+    c[CC] = (1.0 - alpha_f) * gamma / (beta * dt)
+    c[CK] = 1.0 - alpha_f
+    return c
 
-    ``Ge`` (n_el, n_gauss, 8): slope rows :math:`\mathbf G_{ep}` in the element's global DOFs;
-    ``ae`` (n_el, 8): stretch rows :math:`\mathbf a_e`; ``wE`` (n_el, n_gauss): EA times the
-    Gauss weights; ``idx`` (n_el, 8): index of each element DOF in ``u``, or ``n`` for a DOF
-    held at zero; ``measure``: the strain measure's index in
-    ``fivebar.nonlinear.STRAIN_MEASURES`` (0 literal, 1 corotated, 2 uniform).
-    """
-    n = u.size
-    nel, npts, _ = Ge.shape
-    ue = np.empty(8)
-    fl = np.empty(8)
-    b = np.empty(8)
-    cb = np.empty(8)
-    D = np.empty(8)
-    W = np.empty(npts)
-    Kl = np.empty((8, 8))
+
+@njit(cache=True)
+def is_alpha(c):
+    """True for a scheme with alpha terms (HHT, generalised-alpha), False for Newmark."""
+    return not (c[AM] == 0.0 and c[AF] == 0.0)
+
+
+@njit(cache=True)
+def inertia_mass(c, M, Mp, constant, Mb):
+    """The mass of the inertia term: ``M`` (``M_{n+1}``) if it is ``constant`` in time or the
+    scheme has no ``alpha_f``, else ``(1 - alpha_f) M + alpha_f Mp`` (into ``Mb``), the mass at
+    ``t_{n+1-alpha_f}``."""
+    af = c[AF]
+    if constant or af == 0.0:
+        return M
+    n = M.shape[0]
     for i in range(n):
-        f[i] = 0.0
-    if tangent:
-        for i in range(n):
-            for j in range(n):
-                Kt[i, j] = 0.0
-    for e in range(nel):
-        V = 0.0
-        for i in range(8):
-            d = idx[e, i]
-            ue[i] = u[d] if d < n else 0.0
-            V += ae[e, i] * ue[i]
-            fl[i] = 0.0
-            b[i] = 0.0
-            cb[i] = 0.0
-        if tangent:
-            for i in range(8):
-                for j in range(8):
-                    Kl[i, j] = 0.0
-        EAL = 0.0
-        phi = 0.0
-        ebar = 0.0
-        for p in range(npts):
-            Wp = 0.0
-            for i in range(8):
-                Wp += Ge[e, p, i] * ue[i]
-            W[p] = Wp
-            w = wE[e, p]
-            EAL += w
-            phi += w * Wp
-            ebar += 0.5 * w * Wp * Wp
-            for i in range(8):
-                b[i] += w * Ge[e, p, i]
-                cb[i] += w * Wp * Ge[e, p, i]
-        phi /= EAL
-        ebar /= EAL
-        for i in range(8):
-            b[i] /= EAL
-            cb[i] /= EAL
-        for p in range(npts):
-            w = wE[e, p]
-            if measure == 0:
-                ep = 0.5 * W[p] * W[p]
-                for i in range(8):
-                    D[i] = W[p] * Ge[e, p, i]
-            elif measure == 1:
-                s = W[p] - phi
-                ep = 0.5 * (phi * phi + s * s)
-                for i in range(8):
-                    D[i] = s * Ge[e, p, i] + (phi - s) * b[i]
-            else:
-                ep = ebar
-                for i in range(8):
-                    D[i] = cb[i]
-            N = w * (V + ep)
-            we = w * ep
-            for i in range(8):
-                fl[i] += we * ae[e, i] + N * D[i]
-            if tangent:
-                for i in range(8):
-                    gi = Ge[e, p, i]
-                    for j in range(8):
-                        gj = Ge[e, p, j]
-                        h = gi * gj
-                        if measure == 1:
-                            h += 2.0 * b[i] * b[j] - gi * b[j] - b[i] * gj
-                        Kl[i, j] += w * (D[i] * (ae[e, j] + D[j]) + ae[e, i] * D[j]) + N * h
-        for i in range(8):
-            d = idx[e, i]
-            if d < n:
-                f[d] += fl[i]
-        if tangent:
-            for i in range(8):
-                di = idx[e, i]
-                if di >= n:
-                    continue
-                for j in range(8):
-                    dj = idx[e, j]
-                    if dj < n:
-                        Kt[di, dj] += Kl[i, j]
+        for j in range(n):
+            Mb[i, j] = (1.0 - af) * M[i, j] + af * Mp[i, j]
+    return Mb
 
 
-# --- the time loop ----------------------------------------------------------------------------------
 @njit(cache=True)
-def _tangent(Mb, C, K, Kt, cM, cC, cK, nonlin, St):
+def predict(c, Mb, x, w):
+    """Predictors (4.3), (4.2) without the new acceleration, into ``w[UT]``, ``w[VT]``; the
+    first iterate ``u_{n+1}`` with ``a_{n+1} = a_n`` into ``w[U1]``; the alpha history
+    ``alpha_m Mb a_n + alpha_f g_n`` into ``w[HIST]`` (for Newmark it stays as it is made:
+    zero)."""
+    n = x.shape[1]
+    dt, c_up, c_vp, bdt2 = c[DT], c[C_UP], c[C_VP], c[BDT2]
+    u, v, a, g = x[0], x[1], x[2], x[3]
+    ut, vt, u1, hist = w[UT], w[VT], w[U1], w[HIST]
+    for i in range(n):
+        ut[i] = u[i] + dt * v[i] + c_up * a[i]
+        vt[i] = v[i] + c_vp * a[i]
+        u1[i] = ut[i] + bdt2 * a[i]
+    if is_alpha(c):
+        Ma = w[MA]
+        matvec(Mb, a, Ma)
+        am, af = c[AM], c[AF]
+        for i in range(n):
+            hist[i] = am * Ma[i] + af * g[i]
+
+
+@njit(cache=True)
+def corrector(c, w):
+    """(4.2)-(4.3) solved for the new acceleration and velocity of the iterate ``w[U1]``:
+    ``a = (u - u~) / (beta dt^2)`` into ``w[A1]``, ``v = v~ + gamma dt a`` into ``w[V1]``."""
+    bdt2, gdt = c[BDT2], c[GDT]
+    ut, vt, u1, v1, a1 = w[UT], w[VT], w[U1], w[V1], w[A1]
+    for i in range(u1.size):
+        a1[i] = (u1[i] - ut[i]) / bdt2
+        v1[i] = vt[i] + gdt * a1[i]
+
+
+@njit(cache=True)
+def residual(c, Mb, C, K, F, fnl, w, from_u, with_ref=True):
+    """The residual of the equation at the new time, (4.4) or its alpha form, into ``w[R]``:
+    ``(1-am) Mb a + (1-af)(C v + K u + f_nl - F) + hist``.  The iterate's acceleration comes
+    from ``w[U1]`` (:func:`corrector`) if ``from_u``, else it is the one in ``w[A1]`` (the
+    linear step's, ``a_n``).  Returns ``(|R|, ref)``, ``ref`` the sum of the norms of its terms
+    (the scale of the Newton test; with ``with_ref`` False, for the linear step, both 0)."""
+    if from_u:
+        corrector(c, w)
+    else:
+        vt, v1, a1, gdt = w[VT], w[V1], w[A1], c[GDT]
+        for i in range(v1.size):
+            v1[i] = vt[i] + gdt * a1[i]
+    Ma, Cv, Ku, Rw, hist = w[MA], w[CV], w[KU], w[R], w[HIST]
+    matvec(Mb, w[A1], Ma)
+    matvec(C, w[V1], Cv)
+    matvec(K, w[U1], Ku)
+    am, af = c[AM], c[AF]
+    for i in range(Rw.size):
+        Rw[i] = (1.0 - am) * Ma[i] + (1.0 - af) * (Cv[i] + Ku[i] + fnl[i] - F[i]) + hist[i]
+    if not with_ref:
+        return 0.0, 0.0
+    ref = (1.0 - am) * nrm2(Ma) + (1.0 - af) * (nrm2(Cv) + nrm2(Ku) + nrm2(fnl) + nrm2(F))
+    if is_alpha(c):
+        ref += nrm2(hist)
+    return nrm2(Rw), ref
+
+
+@njit(cache=True)
+def converged(rn, ref, du_norm, w, tol):
+    """The Newton test: ``|R| <= rtol ref + atol`` or ``|du| <= xtol |u|``, ``tol`` =
+    ``(rtol, xtol, atol)``."""
+    return rn <= tol[0] * ref + tol[2] or du_norm <= tol[1] * nrm2(w[U1])
+
+
+@njit(cache=True)
+def correct(LU, piv, w):
+    """The Newton update ``u -= S^-1 R`` of the iterate ``w[U1]`` (``w[R]`` receives the
+    increment); returns ``|du|``."""
+    Rw, u1 = w[R], w[U1]
+    lu_solve(LU, piv, Rw)
+    s = 0.0
+    for i in range(u1.size):
+        u1[i] -= Rw[i]
+        s += Rw[i] * Rw[i]
+    return math.sqrt(s)
+
+
+@njit(cache=True)
+def tangent_lu(c, Mb, C, K, Kt, with_kt, St, piv):
+    """The step tangent ``cM Mb + cC C + cK (K [+ Kt])`` into ``St``, factorised in place;
+    returns ``(ok, dmin, dmax)``, ``ok`` False if singular."""
+    cM, cC, cK = c[CM], c[CC], c[CK]
     n = St.shape[0]
     for i in range(n):
         for j in range(n):
             s = cM * Mb[i, j] + cC * C[i, j]
-            St[i, j] = s + cK * (K[i, j] + Kt[i, j]) if nonlin else s + cK * K[i, j]
-
-
-@njit(cache=True)
-def _full_lu(u, G, Ae, wE, idx, measure, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv):
-    """The consistent tangent at ``u`` (f_nl and K_t evaluated) into ``St``, factorised;
-    returns ``(ok, dmin, dmax)``, ok False if singular."""
-    nl_force(u, G, Ae, wE, idx, measure, fnl, Kt, True)
-    _tangent(Mb, C, K, Kt, cM, cC, cK, True, St)
+            St[i, j] = s + cK * (K[i, j] + Kt[i, j]) if with_kt else s + cK * K[i, j]
     dmin, dmax = lu_factor(St, piv)
     return not singular(dmin, dmax), dmin, dmax
 
 
 @njit(cache=True)
-def _linear_lu(LUc, pivc, have, i, Mb, C, K, Kt, cM, cC, cK):
-    """Fill slot ``i`` of the linear-tangent cache if empty; returns False if singular."""
+def linear_lu(c, Mb, C, K, LUc, pivc, have, i):
+    """The LU of the linear tangent (without ``K_t``) in slot ``i`` of the cache ``LUc, pivc,
+    have``, made if the slot is empty; returns ``(ok, dmin, dmax)``."""
     if have[i]:
         return True, 0.0, 0.0
-    _tangent(Mb, C, K, Kt, cM, cC, cK, False, LUc[i])
-    dmin, dmax = lu_factor(LUc[i], pivc[i])
-    if singular(dmin, dmax):
-        return False, dmin, dmax
-    have[i] = 1
-    return True, dmin, dmax
+    ok, dmin, dmax = tangent_lu(c, Mb, C, K, K, False, LUc[i], pivc[i])
+    if ok:
+        have[i] = 1
+    return ok, dmin, dmax
 
 
 @njit(cache=True)
-def march(Ms, Cs, Ks, Fs, k0, m_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af,
-          nonlin, Ge, ae, wE, idx, measure, Kt0,
-          rtol, xtol, atol, max_iter, full,
-          LUc, pivc, have,
-          sens, Pu, Pv, Pa,
-          store_all, T, U, V, A, iters, info):
-    """March ``nsteps`` steps; see :func:`fivebar.newmark.integrate`.
+def linear_step(c, Mb, C, K, F, fnl, x, w, LUc, pivc, have, i):
+    """The step of a linear system, one solve from the predictor: ``w[U1]`` becomes
+    ``u_{n+1}``; the tangent's LU is slot ``i`` of the cache.  Returns ``(ok, dmin, dmax)``."""
+    a, a1 = x[2], w[A1]
+    for k in range(a.size):
+        a1[k] = a[k]
+    residual(c, Mb, C, K, F, fnl, w, False, False)
+    ok, dmin, dmax = linear_lu(c, Mb, C, K, LUc, pivc, have, i)
+    if ok:
+        correct(LUc[i], pivc[i], w)
+    return ok, dmin, dmax
 
-    Per-step data are read at index ``(k0 + j) % len`` of ``Ms, Cs, Ks, Fs`` (and of the
-    element geometry ``Ge, ae`` and the linear-tangent cache ``LUc, pivc, have``), so that a
-    length-1 array is a constant.  ``u, v, a, gn`` (state and alpha history) and ``Pu, Pv, Pa``
-    (sensitivity blocks, if ``sens``) are updated in place.  ``info`` receives the failing step,
-    time, residual, iterations, pivots and reference norm.  Returns a status code.
+
+@njit(cache=True)
+def finish(c, C, K, F, fnl, x, w):
+    """End of the step at the converged ``w[U1]``: its velocity and acceleration
+    (:func:`corrector`), the alpha history ``g_{n+1} = C v + K u + f_nl - F``, the new state
+    into ``x``."""
+    corrector(c, w)
+    u1, v1, a1 = w[U1], w[V1], w[A1]
+    n = u1.size
+    if is_alpha(c):
+        Cv, Ku, g = w[CV], w[KU], x[3]
+        matvec(C, v1, Cv)
+        matvec(K, u1, Ku)
+        for i in range(n):
+            g[i] = Cv[i] + Ku[i] - F[i] + fnl[i]
+    for i in range(n):
+        x[0, i] = u1[i]
+        x[1, i] = v1[i]
+        x[2, i] = a1[i]
+
+
+@njit(cache=True)
+def sensitivity(c, LU, piv, Mb, C, Kp, Cp, Kt, Ktp, nonlin, P, PW):
+    """The step Jacobian applied to the blocks ``P`` (3, n, m), in place (``PW`` (6, n, m)
+    work): the linearised step with the converged tangent's LU (``LU, piv``), ``Kp, Cp`` and
+    ``Ktp`` (if ``nonlin``) the matrices at ``t_n`` for the alpha terms; ``Ktp`` then becomes
+    ``Kt``, the tangent at ``t_{n+1}``."""
+    dt, c_up, c_vp, bdt2, gdt, am, af = c[DT], c[C_UP], c[C_VP], c[BDT2], c[GDT], c[AM], c[AF]
+    Pu, Pv, Pa = P[0], P[1], P[2]
+    Dut, Dvt, Das, Wv, dR, Tmp = PW[0], PW[1], PW[2], PW[3], PW[4], PW[5]
+    n, m = Pu.shape
+    for i in range(n):
+        for l in range(m):
+            dut = Pu[i, l] + dt * Pv[i, l] + c_up * Pa[i, l]
+            dvt = Pv[i, l] + c_vp * Pa[i, l]
+            das = -dut / bdt2
+            Dut[i, l] = dut
+            Dvt[i, l] = dvt
+            Das[i, l] = das
+            Wv[i, l] = dvt + gdt * das
+            dR[i, l] = 0.0
+    # dR = (1-am) Mb das + (1-af) C (dvt + g dt das)
+    #      [+ am Mb Pa + af ((K + Kt)_n Pu + C_n Pv), the blocks at t_n]
+    gemm_acc(1.0 - am, Mb, Das, dR, Tmp)
+    gemm_acc(1.0 - af, C, Wv, dR, Tmp)
+    alpha = is_alpha(c)
+    if alpha:
+        gemm_acc(am, Mb, Pa, dR, Tmp)
+        gemm_acc(af, Kp, Pu, dR, Tmp)
+        if nonlin:
+            gemm_acc(af, Ktp, Pu, dR, Tmp)
+        gemm_acc(af, Cp, Pv, dR, Tmp)
+    lu_solve_matrix(LU, piv, dR)
+    for i in range(n):
+        for l in range(m):
+            du1 = -dR[i, l]
+            da1 = (du1 - Dut[i, l]) / bdt2
+            Pu[i, l] = du1
+            Pv[i, l] = Dvt[i, l] + gdt * da1
+            Pa[i, l] = da1
+    if nonlin and alpha:
+        for i in range(n):
+            for l in range(n):
+                Ktp[i, l] = Kt[i, l]
+
+
+# --- the compiled loop ----------------------------------------------------------------------------
+@njit(cache=True)
+def march(Ms, Cs, Ks, Fs, k0, c, x, nsteps, t0, force, rdata, idata, nonlin, Ktp, tol, max_iter,
+          full, LUc, pivc, have, P, X, iters, info):
+    """March ``nsteps`` steps of the scheme ``c`` (:func:`coefficients`) from the state ``x``
+    (4, n) at ``t0``, in place; see :func:`fivebar.newmark.integrate`.
+
+    Per-step data are read at index ``(k0 + j) % len`` of ``Ms, Cs, Ks, Fs`` and of the
+    linear-tangent cache ``LUc, pivc, have`` (a length-1 array is a constant); the nonlinear
+    force (if ``nonlin``) is ``force(u, k0 + j, rdata, idata, ...)`` (:data:`FORCE_SIG`),
+    ``Ktp`` its tangent at ``t0`` (for the alpha terms of the sensitivity).  ``tol`` =
+    ``(rtol, xtol, atol)``; ``full``: Newton with the consistent tangent, else the linear one.
+    ``P`` (3, n, m): sensitivity blocks, propagated in place if ``m > 0``.  ``X`` (3, N, n)
+    receives ``u, v, a`` at every step if ``N = nsteps + 1``, ``iters`` the Newton iterations,
+    ``info`` the failing step, time, residual, iterations, pivots and reference norm.
+    Returns a status code.
     """
-    n = u.size
-    SM, SC, SK, SF = Ms.shape[0], Cs.shape[0], Ks.shape[0], Fs.shape[0]
-    SG = Ge.shape[0]
-    SL = LUc.shape[0]
-    newmark = am == 0.0 and af == 0.0
-    bdt2 = b * dt * dt
-    cM = (1.0 - am) / bdt2
-    cC = (1.0 - af) * g / (b * dt)
-    cK = 1.0 - af
-    c_up = dt * dt * (0.5 - b)
-    c_vp = dt * (1.0 - g)
-    gdt = g * dt
-
-    ut = np.empty(n)
-    vt = np.empty(n)
-    u1 = np.empty(n)
-    v1 = np.empty(n)
-    a1 = np.empty(n)
-    R = np.empty(n)
-    Ma = np.empty(n)
-    Cv = np.empty(n)
-    Ku = np.empty(n)
-    hist = np.zeros(n)
+    n = x.shape[1]
+    SM, SC, SK, SF, SL = Ms.shape[0], Cs.shape[0], Ks.shape[0], Fs.shape[0], LUc.shape[0]
+    w = np.zeros((NWORK, n))
     fnl = np.zeros(n)
     Kt = np.zeros((n, n))
-    Ktp = Kt0.copy()
     St = np.empty((n, n))
     piv = np.empty(n, np.int64)
     Mbw = np.empty((n, n))
-    ms = Pu.shape[1]
-    Dut = np.empty((n, ms))
-    Dvt = np.empty((n, ms))
-    Das = np.empty((n, ms))
-    Wv = np.empty((n, ms))
-    dR = np.empty((n, ms))
-    Tmp = np.empty((n, ms))
-
+    m = P.shape[2]
+    sens = m > 0
+    PW = np.empty((6, n, m))
+    store = X.shape[1] == nsteps + 1
+    u1 = w[U1]
     for j in range(1, nsteps + 1):
-        t = t0 + j * dt
+        t = t0 + j * c[DT]
         kk = k0 + j
-        M = Ms[kk % SM]
         C = Cs[kk % SC]
         K = Ks[kk % SK]
         F = Fs[kk % SF]
-        if m_const:
-            Mb = M
-        else:
-            Mp = Ms[(kk - 1) % SM]
-            for i in range(n):
-                for l in range(n):
-                    Mbw[i, l] = (1.0 - af) * M[i, l] + af * Mp[i, l]
-            Mb = Mbw
-        for i in range(n):
-            ut[i] = u[i] + dt * v[i] + c_up * a[i]
-            vt[i] = v[i] + c_vp * a[i]
-            u1[i] = ut[i] + bdt2 * a[i]
-        if not newmark:
-            matvec(Mb, a, Ma)
-            for i in range(n):
-                hist[i] = am * Ma[i] + af * gn[i]
+        Mb = inertia_mass(c, Ms[kk % SM], Ms[(kk - 1) % SM], SM == 1, Mbw)
+        predict(c, Mb, x, w)
         li = kk % SL
         if not nonlin:
-            for i in range(n):
-                v1[i] = vt[i] + gdt * a[i]
-            matvec(Mb, a, Ma)
-            matvec(C, v1, Cv)
-            matvec(K, u1, Ku)
-            if newmark:
-                for i in range(n):
-                    R[i] = Ma[i] + Cv[i] + Ku[i] - F[i]
-            else:
-                for i in range(n):
-                    R[i] = (1.0 - am) * Ma[i] + (1.0 - af) * (Cv[i] + Ku[i] - F[i]) + hist[i]
-            ok, dmin, dmax = _linear_lu(LUc, pivc, have, li, Mb, C, K, Kt, cM, cC, cK)
+            ok, dmin, dmax = linear_step(c, Mb, C, K, F, fnl, x, w, LUc, pivc, have, li)
             if not ok:
                 info[0], info[1], info[4], info[5] = j, t, dmin, dmax
                 return SINGULAR
-            lu_solve(LUc[li], pivc[li], R)
-            for i in range(n):
-                u1[i] -= R[i]
             LU = LUc[li]
-            P = pivc[li]
+            LP = pivc[li]
         else:
-            G = Ge[kk % SG]
-            Ae = ae[kk % SG]
             k_it = 0
             du_norm = math.inf
             while True:
-                nl_force(u1, G, Ae, wE, idx, measure, fnl, Kt, False)
-                for i in range(n):
-                    a1[i] = (u1[i] - ut[i]) / bdt2
-                    v1[i] = vt[i] + gdt * a1[i]
-                matvec(Mb, a1, Ma)
-                matvec(C, v1, Cv)
-                matvec(K, u1, Ku)
-                for i in range(n):
-                    R[i] = (1.0 - am) * Ma[i] + (1.0 - af) * (Cv[i] + Ku[i] + fnl[i] - F[i])
-                ref = (1.0 - am) * nrm2(Ma) + (1.0 - af) * (
-                    nrm2(Cv) + nrm2(Ku) + nrm2(fnl) + nrm2(F))
-                if not newmark:
-                    for i in range(n):
-                        R[i] += hist[i]
-                    ref += nrm2(hist)
-                rn = nrm2(R)
+                force(u1, kk, rdata, idata, fnl, Kt, False)
+                rn, ref = residual(c, Mb, C, K, F, fnl, w, True)
                 if not math.isfinite(rn):
                     info[0], info[1], info[2], info[3] = j, t, rn, k_it
                     return NOT_FINITE
-                if rn <= rtol * ref + atol or du_norm <= xtol * nrm2(u1):
+                if converged(rn, ref, du_norm, w, tol):
                     break
                 if k_it >= max_iter:
                     info[0], info[1], info[2], info[3], info[6] = j, t, rn, k_it, ref
                     return NO_CONVERGENCE
                 if full:
                     # the tangent only now, when an update follows (not at the converged point)
-                    ok, dmin, dmax = _full_lu(u1, G, Ae, wE, idx, measure, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv)
+                    force(u1, kk, rdata, idata, fnl, Kt, True)
+                    ok, dmin, dmax = tangent_lu(c, Mb, C, K, Kt, True, St, piv)
                     if not ok:
                         info[0], info[1], info[4], info[5] = j, t, dmin, dmax
                         return SINGULAR
-                    lu_solve(St, piv, R)
+                    du_norm = correct(St, piv, w)
                 else:
-                    ok, dmin, dmax = _linear_lu(LUc, pivc, have, li, Mb, C, K, Kt, cM, cC, cK)
+                    ok, dmin, dmax = linear_lu(c, Mb, C, K, LUc, pivc, have, li)
                     if not ok:
                         info[0], info[1], info[4], info[5] = j, t, dmin, dmax
                         return SINGULAR
-                    lu_solve(LUc[li], pivc[li], R)
-                s = 0.0
-                for i in range(n):
-                    u1[i] -= R[i]
-                    s += R[i] * R[i]
-                du_norm = math.sqrt(s)
+                    du_norm = correct(LUc[li], pivc[li], w)
                 k_it += 1
             iters[j - 1] = k_it
             if sens:  # the consistent tangent at the converged u_{n+1}
-                ok, dmin, dmax = _full_lu(u1, G, Ae, wE, idx, measure, fnl, Kt, Mb, C, K, cM, cC, cK, St, piv)
+                force(u1, kk, rdata, idata, fnl, Kt, True)
+                ok, dmin, dmax = tangent_lu(c, Mb, C, K, Kt, True, St, piv)
                 if not ok:
                     info[0], info[1], info[4], info[5] = j, t, dmin, dmax
                     return SINGULAR
             LU = St
-            P = piv
-        for i in range(n):
-            a1[i] = (u1[i] - ut[i]) / bdt2
-            v1[i] = vt[i] + gdt * a1[i]
-
+            LP = piv
         if sens:
+            sensitivity(c, LU, LP, Mb, C, Ks[(kk - 1) % SK], Cs[(kk - 1) % SC], Kt, Ktp, nonlin,
+                        P, PW)
+        finish(c, C, K, F, fnl, x, w)
+        if store:
             for i in range(n):
-                for l in range(ms):
-                    dut = Pu[i, l] + dt * Pv[i, l] + c_up * Pa[i, l]
-                    dvt = Pv[i, l] + c_vp * Pa[i, l]
-                    das = -dut / bdt2
-                    Dut[i, l] = dut
-                    Dvt[i, l] = dvt
-                    Das[i, l] = das
-                    Wv[i, l] = dvt + gdt * das
-                    dR[i, l] = 0.0
-            # dR = (1-am) Mb das + (1-af) C (dvt + g dt das)
-            #      [+ am Mb Pa + af ((K + Kt)_n Pu + C_n Pv), the blocks at t_n]
-            gemm_acc(1.0 - am, Mb, Das, dR, Tmp)
-            gemm_acc(1.0 - af, C, Wv, dR, Tmp)
-            if not newmark:
-                gemm_acc(am, Mb, Pa, dR, Tmp)
-                gemm_acc(af, Ks[(kk - 1) % SK], Pu, dR, Tmp)
-                if nonlin:
-                    gemm_acc(af, Ktp, Pu, dR, Tmp)
-                gemm_acc(af, Cs[(kk - 1) % SC], Pv, dR, Tmp)
-            lu_solve_matrix(LU, P, dR)
-            for i in range(n):
-                for l in range(ms):
-                    du1 = -dR[i, l]
-                    da1 = (du1 - Dut[i, l]) / bdt2
-                    Pu[i, l] = du1
-                    Pv[i, l] = Dvt[i, l] + gdt * da1
-                    Pa[i, l] = da1
-            if nonlin and not newmark:
-                for i in range(n):
-                    for l in range(n):
-                        Ktp[i, l] = Kt[i, l]
-        if not newmark:
-            matvec(C, v1, Cv)
-            matvec(K, u1, Ku)
-            for i in range(n):
-                gn[i] = Cv[i] + Ku[i] - F[i] + (fnl[i] if nonlin else 0.0)
-        for i in range(n):
-            u[i] = u1[i]
-            v[i] = v1[i]
-            a[i] = a1[i]
-        if store_all:
-            T[j] = t
-            for i in range(n):
-                U[j, i] = u[i]
-                V[j, i] = v[i]
-                A[j, i] = a[i]
-    if not store_all:
-        T[1] = t0 + nsteps * dt
-        for i in range(n):
-            U[1, i] = u[i]
-            V[1, i] = v[i]
-            A[1, i] = a[i]
+                X[0, j, i] = x[0, i]
+                X[1, j, i] = x[1, i]
+                X[2, j, i] = x[2, i]
     return OK
+
+
+@njit(cache=True)
+def no_force(u, k, rdata, idata, f, Kt, tangent):
+    """The force of a linear system (zero): the :data:`FORCE_SIG` placeholder of :func:`march`."""
+    for i in range(f.size):
+        f[i] = 0.0
+
+
+_r2, _r3 = (types.Array(types.float64, d, "C", readonly=True) for d in (2, 3))  # step data
+#: Signatures that :func:`fivebar._jitcache.import_cached` compiles when it loads the module
+#: (``march`` takes the force as a first-class function of :data:`FORCE_SIG`).
+__jit_signatures__ = {
+    "march": (types.int64(_r3, _r3, _r3, _r2, types.int64, _f1, _f2, types.int64, types.float64,
+                          types.FunctionType(FORCE_SIG), _f1, _i1, types.boolean, _f2, _f1,
+                          types.int64, types.boolean, _f3, _i2, types.uint8[::1], _f3, _f3,
+                          _i1, _f1),),
+    "no_force": (FORCE_SIG,),
+}

@@ -347,24 +347,20 @@ class LinkageDynamics:
     def _nonlinear(self, u: NDArray, t: float) -> tuple[NDArray, NDArray]:
         return self._nl.evaluate(np.asarray(u, float), self.nonlinear_geometry(t))
 
-    def nonlinear_elements(self, step_data: PeriodicStepData):
-        """Element data of f_nl at the time points of ``step_data`` for the compiled step.
-
-        ``(Ge, ae, wE, idx, measure)`` as ``fivebar._kernels.nl_force`` takes them, ``Ge`` and
-        ``ae`` sampled at the S step times; None when the model is linear or ``step_data``
-        does not sample this model's period at its step times (then the Python loop serves).
+    def compiled_nonlinear(self, step_data: PeriodicStepData):
+        """The nonlinear force for the compiled time loop (the optional member of
+        :class:`fivebar.newmark.SecondOrderSystem`): ``(force, rdata, idata)`` of
+        :meth:`fivebar.nonlinear.NonlinearForce.compiled`, sampled at the S step times; None when
+        the model is linear or ``step_data`` does not sample this model's period at its step
+        times (then the Python loop serves, with ``nonlinear``).
         """
         sd = step_data
         if (self._nl is None or sd is None or sd.steps != self.steps or sd.t0 != 0.0
                 or abs(sd.period - self.period) > 1e-12 * self.period):
             return None
         if self._elements is None:
-            def make():
-                Ge, ae = self._nl.element_geometry(*self.crank_angles(self.t))
-                return (np.ascontiguousarray(Ge), np.ascontiguousarray(ae),
-                        np.ascontiguousarray(self._nl.element_weights),
-                        np.ascontiguousarray(self._nl.element_dofs, dtype=np.int64), self._nl.measure)
-            self._elements = self._at_step_times("elements", make)
+            self._elements = self._at_step_times(
+                "elements", lambda: self._nl.compiled(*self.crank_angles(self.t)))
         return self._elements
 
     def nonlinear_geometry(self, t: float) -> ElementGeometry:

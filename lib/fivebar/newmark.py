@@ -111,19 +111,22 @@ converged step: with the converged tangent :math:`\mathbf S`,
 and :math:`\delta\dot{\mathbf u}_{n+1} = \delta\tilde{\mathbf v} + \gamma\Delta t\,
 \delta\ddot{\mathbf u}_{n+1}`.
 
-**Compiled loop.**  The time loop above, the Newton iterations, the dense LU of the step
-tangent, the element-by-element nonlinear force and tangent and the sensitivity propagation run
-in compiled code (``fivebar._kernels``, numba, cached on disk) whenever the data allow it:
-per-step matrices from a :class:`PeriodicStepData`, or a time-invariant system, with either no
-nonlinear force or one that supplies its element data (``system.nonlinear_elements(step_data)``,
-as :class:`fivebar.dynamics.LinkageDynamics` does).  A generic system with Python callbacks
-(a nonlinear force given as a function, time-varying matrices without step data) takes the same
-algorithm written with numpy and LAPACK calls.  The two agree to round-off (tests).  In the
-compiled loop the nonlinear tangent is evaluated only when a Newton update follows (and at the
-converged state when the sensitivity is asked for).  The first call of a fresh installation
-compiles the kernels (tens of seconds); later processes load them from the cache, which
-heals (a damaged file is discarded and rebuilt with a warning), is read where it is read-only,
-and is temporary (removed at exit) where nothing is writable: ``fivebar._jitcache``.
+**The step, written once; two loops.**  The step's algebra (the scheme's coefficients, the
+predictors, the residual and its reference norm, the Newton test and update, the tangent and its
+LU, the alpha history, the sensitivity step) is a set of small compiled functions
+(``fivebar._kernels``, numba, cached on disk) and nothing else.  Two loops call them: a compiled
+loop, whenever the data allow it (per-step matrices from a :class:`PeriodicStepData`, or a
+time-invariant system, with no nonlinear force or one the system supplies compiled,
+``system.compiled_nonlinear(step_data)``, as :class:`fivebar.dynamics.LinkageDynamics` does with
+the beam's strain force), and a Python loop for a generic system with Python callbacks (a
+nonlinear force given as a function, time-varying matrices without step data).  The loops
+differ only in where the matrices and the nonlinear force come from; the tests hold them equal
+to round-off.  The compiled loop evaluates the nonlinear tangent only when a Newton update
+follows (and at the converged state when the sensitivity is asked for).  The first call of a
+fresh installation compiles the kernels (tens of seconds); later processes load them from the
+cache, which heals (a damaged file is discarded and rebuilt with a warning), is read where it
+is read-only, and is temporary (removed at exit) where nothing is writable:
+``fivebar._jitcache``.
 
 References: N. M. Newmark, J. Eng. Mech. Div. ASCE 85 (1959) 67-94; H. M. Hilber,
 T. J. R. Hughes, R. L. Taylor, Earthquake Eng. Struct. Dyn. 5 (1977) 283-292; J. Chung,
@@ -143,7 +146,7 @@ from typing import Any, Literal, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import ComputationError, FivebarError, InputError, InputTypeError, array, choice, memory, number
+from .errors import ComputationError, FivebarError, InputError, InputTypeError, array, choice, flag, memory, number
 
 try:  # optional: limit BLAS threads inside the time loop (see ``integrate(blas_threads=...)``)
     from threadpoolctl import ThreadpoolController
@@ -270,10 +273,11 @@ class Newmark(Scheme):
         return max(abs(tr + math.sqrt(disc)), abs(tr - math.sqrt(disc))) / 2
 
     def __post_init__(self) -> None:
-        g, b = self.gamma, self.beta
-        if not (math.isfinite(g) and math.isfinite(b)):
-            raise UnstableParametersError(
-                f"Newmark parameters must be finite, got gamma={g!r}, beta={b!r}")
+        g = number("gamma", self.gamma, error=UnstableParametersError)
+        b = number("beta", self.beta, error=UnstableParametersError)
+        object.__setattr__(self, "gamma", g)
+        object.__setattr__(self, "beta", b)
+        object.__setattr__(self, "allow_unstable", flag("allow_unstable", self.allow_unstable))
         if b <= 0.0:
             raise UnstableParametersError(
                 f"Newmark beta={b!r} must be > 0 for the implicit scheme (beta = 0 is the explicit "
@@ -315,8 +319,9 @@ class HHT(Scheme):
     alpha: float = -0.05
 
     def __post_init__(self) -> None:
-        a = self.alpha
-        if not (math.isfinite(a) and -1.0 / 3.0 - 1e-15 <= a <= 0.0):
+        a = number("alpha", self.alpha, error=UnstableParametersError)
+        object.__setattr__(self, "alpha", a)
+        if not -1.0 / 3.0 - 1e-15 <= a <= 0.0:
             raise UnstableParametersError(
                 f"HHT alpha={a!r} must lie in [-1/3, 0] (the range where the scheme is second "
                 "order and unconditionally stable); alpha = 0 is the average-acceleration rule"
@@ -359,8 +364,9 @@ class GeneralizedAlpha(Scheme):
     rho_inf: float = 0.8
 
     def __post_init__(self) -> None:
-        r = self.rho_inf
-        if not (math.isfinite(r) and 0.0 <= r <= 1.0):
+        r = number("rho_inf", self.rho_inf, error=UnstableParametersError)
+        object.__setattr__(self, "rho_inf", r)
+        if not 0.0 <= r <= 1.0:
             raise UnstableParametersError(
                 f"generalised-alpha rho_inf={r!r} must lie in [0, 1] (the spectral radius at "
                 "omega dt -> infinity; values above 1 are unstable)"
@@ -409,7 +415,9 @@ def amplification_matrix(scheme: Scheme, omega_dt: float, zeta: float = 0.0) -> 
     -------
     ndarray, shape (3, 3)
     """
+    _check_scheme(scheme)
     W = number("omega_dt", omega_dt, low=0.0)
+    zeta = number("zeta", zeta, low=0.0)
     g, b, am, af = scheme.gamma, scheme.beta, scheme.alpha_m, scheme.alpha_f
     c, k = 2.0 * zeta * W, W * W  # scaled damping and stiffness (dt = 1, m = 1)
     # predictors as rows acting on x = (u, v, a) with dt = 1
@@ -424,7 +432,21 @@ def amplification_matrix(scheme: Scheme, omega_dt: float, zeta: float = 0.0) -> 
     return np.vstack([P_u + b * a1, P_v + g * a1, a1])
 
 
+def _check_scheme(scheme: Any) -> None:
+    if not isinstance(scheme, Scheme):
+        raise InputTypeError(
+            f"scheme = {scheme!r} ({type(scheme).__name__}) is not allowed: give a Newmark, HHT or "
+            "GeneralizedAlpha instance")
+
+
 # --- systems ----------------------------------------------------------------------------------
+def _check_system(system: Any) -> None:
+    for name in ("matrices", "force"):
+        if not callable(getattr(system, name, None)):
+            raise InputTypeError(
+                f"system = {system!r} ({type(system).__name__}) is not allowed: give a second-order "
+                "system with matrices(t) and force(t) (fivebar.newmark.System, or the linkage's dynamics)")
+
 @runtime_checkable
 class SecondOrderSystem(Protocol):
     """What :func:`integrate` needs from a model.
@@ -433,7 +455,11 @@ class SecondOrderSystem(Protocol):
     and ``force(t) -> F`` of shape ``(n,)``.  Optional members: ``nonlinear(u, t) -> (f_nl, K_t)``
     (the internal nonlinear force, shape ``(n,)``, and its Jacobian ``d f_nl / d u``,
     ``(n, n)``), absent or ``None`` for a linear system; ``time_invariant: bool`` (True if
-    ``M, C, K`` do not depend on ``t``, so one factorisation serves every step).
+    ``M, C, K`` do not depend on ``t``, so one factorisation serves every step);
+    ``compiled_nonlinear(step_data) -> (force, rdata, idata)`` or None, the same nonlinear
+    force as a compiled function for the compiled loop (``fivebar._kernels.FORCE_SIG``:
+    ``force(u, k, rdata, idata, f, Kt, tangent)`` at the state ``u`` and step point ``k`` of
+    ``step_data``, its data in the float and integer arrays ``rdata``, ``idata``).
     """
 
     def matrices(self, t: float) -> tuple[Array, Array, Array]: ...
@@ -564,8 +590,7 @@ class PeriodicStepData:
         self.F = np.broadcast_to(F, (S, n))
         self.t0, self.period, self.steps, self.n = float(t0), float(period), int(S), int(n)
         self.dt = self.period / self.steps
-        self._lu: dict[tuple[float, float, float, float], list[Any]] = {}
-        self._klu: dict[tuple[float, float, float, float], Any] = {}
+        self._lu: dict[tuple[float, float, float, float], Any] = {}
         self._kernel_arrays: tuple[Array, Array, Array, Array] | None = None
 
     @classmethod
@@ -582,47 +607,22 @@ class PeriodicStepData:
         )
 
     def kernel_arrays(self) -> tuple[Array, Array, Array, Array]:
-        """``M, C, K, F`` as contiguous arrays for the compiled loop; an array that is the same
-        at every step is given once (leading dimension 1)."""
+        """``M, C, K, F`` as contiguous arrays for the time loop; an array that is the same at
+        every step is given once (leading dimension 1)."""
         if self._kernel_arrays is None:
             self._kernel_arrays = tuple(
                 np.ascontiguousarray(X[:1] if X.strides[0] == 0 else X, dtype=float)
                 for X in (self.M, self.C, self.K, self.F))
         return self._kernel_arrays
 
-    def kernel_lu_cache(self, key: tuple[float, float, float, float]) -> tuple[Any, Any, Any]:
-        """The compiled loop's per-step LU cache of the linear tangent, ``(LU, piv, filled)``,
-        for ``key = (cM, cC, cK, alpha_f)`` (see :meth:`lu`); filled lazily by the loop."""
-        if key not in self._klu:
-            self._klu[key] = _new_lu_cache(self.steps, self.n)
-        return self._klu[key]
-
-    def lu(self, k: int, cM: float, cC: float, cK: float, alpha_f: float = 0.0) -> Any:
-        """Cached LU of the linear tangent of the step ending at point k.
-
-        ``cM Mb + cC C_k + cK K_k`` with ``Mb = (1 - alpha_f) M_k + alpha_f M_{k-1}``.
-        """
-        af = 0.0 if self.M_constant else alpha_f
-        cache = self._lu.setdefault((cM, cC, cK, af), [None] * self.steps)
-        if cache[k] is None:
-            Mb = self.M[k] if af == 0.0 else (1.0 - af) * self.M[k] + af * self.M[k - 1]
-            cache[k] = _factor(cM * Mb + cC * self.C[k] + cK * self.K[k], self.t0 + k * self.dt)
-        return cache[k]
-
-
-def _factor(S: Array, t: float) -> tuple[Array, NDArray[np.int32]]:
-    """LU factorisation by LAPACK getrf (scipy's lu_factor wrapper costs ~10 us per call)."""
-    from scipy.linalg.lapack import dgetrf  # here: scipy.linalg takes ~0.3 s to import
-
-    lu, piv, info = dgetrf(S, overwrite_a=True)
-    d = np.abs(lu.diagonal())
-    dmin, dmax = d.min(), d.max()
-    if info != 0 or not (dmin > 1e-14 * dmax) or not math.isfinite(dmax):
-        raise NewtonConvergenceError(
-            f"the effective stiffness (tangent) at t = {t:.9g} s is singular or not finite "
-            f"(smallest/largest pivot {dmin:.3e}/{dmax:.3e})", t, math.nan, 0
-        )
-    return lu, piv
+    def lu_cache(self, key: tuple[float, float, float, float]) -> tuple[Any, Any, Any]:
+        """The per-step LU cache of the linear tangent, ``(LU, piv, filled)``, for ``key =
+        (cM, cC, cK, alpha_f)``: the factors of ``cM Mb + cC C_k + cK K_k`` with ``Mb = (1 -
+        alpha_f) M_k + alpha_f M_{k-1}`` (``alpha_f`` 0 when M is constant) at each step point
+        ``k``, filled lazily by the time loop (either loop: one cache)."""
+        if key not in self._lu:
+            self._lu[key] = _new_lu_cache(self.steps, self.n)
+        return self._lu[key]
 
 
 _CONTROLLER: Any = None
@@ -642,14 +642,6 @@ def _blas_threads(k: int | None) -> contextlib.AbstractContextManager[Any]:
     return _CONTROLLER.limit(limits=int(k), user_api="blas")
 
 
-def _solve(lu: tuple[Array, NDArray[np.int32]], b: Array) -> Array:
-    """Solve with a factorisation from :func:`_factor` (LAPACK getrs)."""
-    from scipy.linalg.lapack import dgetrs
-
-    x, info = dgetrs(lu[0], lu[1], b)
-    return x
-
-
 def consistent_acceleration(system: SecondOrderSystem, t: float, u: ArrayLike,
                             v: ArrayLike) -> Array:
     """Acceleration from the equation of motion: ``M(t) a = F(t) - C v - K u - f_nl(u)``.
@@ -667,12 +659,17 @@ def consistent_acceleration(system: SecondOrderSystem, t: float, u: ArrayLike,
     ndarray (n,)
         Acceleration.
     """
-    M, C, K = system.matrices(float(t))
-    u, v = np.asarray(u, float), np.asarray(v, float)
-    rhs = np.asarray(system.force(float(t)), float) - C @ v - K @ u
+    _check_system(system)
+    t = number("t", t, unit="s")
+    u = array("u", u)
+    n = u.size
+    u, v = u.ravel(), array("v", v, shape=(n,))
+    M, C, K = (_checked(f"system: {name}(t = {t:.9g} s)", X, (n, n))
+               for name, X in zip("MCK", system.matrices(t)))
+    rhs = _checked(f"system: F(t = {t:.9g} s)", system.force(t), (n,)) - C @ v - K @ u
     nl = getattr(system, "nonlinear", None)
     if nl is not None:
-        rhs = rhs - np.asarray(nl(u, float(t))[0], float)
+        rhs = rhs - _nonlinear_at(nl, u, t, n)[0]
     try:
         return np.linalg.solve(M, rhs)
     except np.linalg.LinAlgError as exc:
@@ -810,15 +807,8 @@ def integrate(
         the time, the residual norm and the iterations), or a singular tangent.
     """
     scheme = GENERIC_SCHEME if scheme is None else scheme
-    if not isinstance(scheme, Scheme):
-        raise InputTypeError(
-            f"scheme = {scheme!r} ({type(scheme).__name__}) is not allowed: give a Newmark, HHT or "
-            "GeneralizedAlpha instance")
-    for name in ("matrices", "force"):
-        if not callable(getattr(system, name, None)):
-            raise InputTypeError(
-                f"system = {system!r} ({type(system).__name__}) is not allowed: give a second-order "
-                "system with matrices(t) and force(t) (fivebar.newmark.System, or the linkage's dynamics)")
+    _check_scheme(scheme)
+    _check_system(system)
     dt = number("dt", dt, low=0.0, low_open=True, unit="s")
     t0 = number("t0", t0, unit="s")
     nsteps = number("nsteps", nsteps, integer=True, low=0)
@@ -871,6 +861,7 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
 
     nl = getattr(system, "nonlinear", None)
     linear = nl is None
+    time_invariant = bool(getattr(system, "time_invariant", False)) and step_data is None
 
     # --- access to the per-step data ---------------------------------------------------------
     if step_data is not None:
@@ -888,10 +879,11 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
             raise InputError(f"t0 = {t0!r} is not a time point of step_data "
                              f"(t0 + k dt, t0={sd.t0!r}, dt={dt!r})")
         k0 %= sd.steps
+        Ms, Cs, Ks, Fs = sd.kernel_arrays()
 
         def data(j: int) -> tuple[Array, Array, Array, Array]:
-            k = (k0 + j) % sd.steps
-            return sd.M[k], sd.C[k], sd.K[k], sd.F[k]
+            k = k0 + j
+            return Ms[k % len(Ms)], Cs[k % len(Cs)], Ks[k % len(Ks)], Fs[k % len(Fs)]
     else:
         sd = None
         k0 = 0
@@ -899,35 +891,30 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
 
         def data(j: int) -> tuple[Array, Array, Array, Array]:
             t = t0 + j * dt
+            at = "t0" if j == 0 else f"t = {t:.9g} s"
             if fixed:
                 M, C, K = fixed
             else:
-                M, C, K = (np.asarray(X, float) for X in system.matrices(t))
-                if getattr(system, "time_invariant", False):
+                M, C, K = (_checked(f"system: {name}({at})", X, (n, n))
+                           for name, X in zip("MCK", system.matrices(t)))
+                if time_invariant:
                     fixed.extend((M, C, K))
-            return M, C, K, np.asarray(system.force(t), float)
+            return M, C, K, _checked(f"system: F({at})", system.force(t), (n,))
 
-    g, b = float(scheme.gamma), float(scheme.beta)
-    am, af = float(scheme.alpha_m), float(scheme.alpha_f)
-    newmark = am == 0.0 and af == 0.0
-    bdt2 = b * dt * dt
-    cM, cC, cK = (1.0 - am) / bdt2, (1.0 - af) * g / (b * dt), 1.0 - af
-    c_up, c_vp = dt * dt * (0.5 - b), dt * (1.0 - g)
-
+    kern = _kernels()
+    c = kern.coefficients(float(scheme.gamma), float(scheme.beta), float(scheme.alpha_m),
+                          float(scheme.alpha_f), dt)
+    alpha = not scheme.is_newmark
     M0, C0, K0, F0 = data(0)
-    for name, X in (("M", M0), ("C", C0), ("K", K0)):
-        if X.shape != (n, n):
-            raise InputError(f"system: {name}(t0) has shape {X.shape}, expected ({n}, {n}) for u0 "
-                             f"of {n} DOFs")
-    if F0.shape != (n,):
-        raise InputError(f"system: F(t0) has shape {F0.shape}, expected ({n},) for u0 of {n} DOFs")
+    if sd is not None:
+        for name, Y, shape in (("M", M0, (n, n)), ("C", C0, (n, n)), ("K", K0, (n, n)), ("F", F0, (n,))):
+            _checked(f"system: {name}(t0)", Y, shape)
 
     if linear:
         fnl0 = np.zeros(n)
-        Kt0 = None
+        Kt0 = np.zeros((n, n))
     else:
-        fnl0, Kt0 = nl(u, t0)
-        fnl0, Kt0 = np.asarray(fnl0, float), np.asarray(Kt0, float)
+        fnl0, Kt0 = _nonlinear_at(nl, u, t0, n)
     if a0 is None:
         try:
             a = np.linalg.solve(M0, F0 - C0 @ v - K0 @ u - fnl0)
@@ -940,250 +927,204 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
         if a.shape != (n,):
             raise InputError(f"a0 has shape {a.shape}: expected ({n},) like u0")
 
+    # --- the state (u, v, a, g), g = C v + K u + f_nl - F the history of the alpha schemes ---
+    x = np.zeros((4, n))
+    x[0], x[1], x[2] = u, v, a
+    if alpha:
+        x[3] = C0 @ v + K0 @ u + fnl0 - F0
+
     # --- storage -------------------------------------------------------------------------
     nstore = nsteps + 1 if store == "all" else 2
-    T = np.empty(nstore)
-    U, V, A = (np.empty((nstore, n)) for _ in range(3))
-    T[0], U[0], V[0], A[0] = t0, u, v, a
-    iters = np.ones(nsteps, dtype=int)
+    T = t0 + np.arange(nstore) * dt
+    if store == "last":
+        T[1] = t0 + nsteps * dt
+    X = np.empty((3, nstore, n))
+    X[:, 0] = x[:3]
+    iters = np.ones(nsteps, dtype=np.int64)
 
-    # history term of the alpha schemes: g_n = C v + K u + f_nl - F at t_n
-    if not newmark:
-        gn = C0 @ v + K0 @ u + fnl0 - F0
-
-    # sensitivity: Phi = d(u, v, a)_n / d(initial state), blocks of shape (n, m)
-    Phi = None
+    # sensitivity: d(u, v, a)_n / d(initial state), blocks of shape (n, m)
     if sensitivity:
         if sensitivity == "uv":
             Pu = np.hstack([np.eye(n), np.zeros((n, n))])
             Pv = np.hstack([np.zeros((n, n)), np.eye(n)])
-            Kfull = K0 if Kt0 is None else K0 + Kt0
-            Pa = -np.linalg.solve(M0, np.hstack([Kfull, C0]))
+            Pa = -np.linalg.solve(M0, np.hstack([K0 + Kt0, C0]))
         else:
             Pu = np.hstack([np.eye(n), np.zeros((n, 2 * n))])
             Pv = np.hstack([np.zeros((n, n)), np.eye(n), np.zeros((n, n))])
             Pa = np.hstack([np.zeros((n, 2 * n)), np.eye(n)])
         if directions is not None:  # only the products with the given directions
-            Pu, Pv, Pa = (np.ascontiguousarray(P @ directions) for P in (Pu, Pv, Pa))
-        Phi = [Pu, Pv, Pa]
-    prev = (M0, C0, K0, Kt0)  # matrices at t_n (for the alpha terms)
+            Pu, Pv, Pa = (P @ directions for P in (Pu, Pv, Pa))
+        P = np.ascontiguousarray(np.stack([Pu, Pv, Pa]), dtype=float)
+    else:
+        P = np.zeros((3, n, 0))
 
-    time_invariant = bool(getattr(system, "time_invariant", False)) and sd is None
-    M_const = newmark or time_invariant or (sd is not None and sd.M_constant)
-    lu_const = None  # factorisation of the (constant) linear tangent
+    # the LU cache of the linear tangent: per step point of the step data, else one slot
+    M_const = time_invariant or (sd is not None and sd.M_constant)
+    key = (float(c[kern.CM]), float(c[kern.CC]), float(c[kern.CK]),
+           0.0 if M_const else float(scheme.alpha_f))
+    cache = sd.lu_cache(key) if sd is not None else _new_lu_cache(1, n)
+    tol = np.array([rtol, xtol, atol])
 
-    def linear_lu(j: int, M: Array, C: Array, K: Array) -> Any:
-        nonlocal lu_const
-        if sd is not None:
-            return sd.lu((k0 + j) % sd.steps, cM, cC, cK, af)
-        if time_invariant:
-            if lu_const is None:
-                lu_const = _factor(cM * M + cC * C + cK * K, t0 + j * dt)
-            return lu_const
-        return _factor(cM * M + cC * C + cK * K, t0 + j * dt)
-
-    # --- the compiled loop, where it serves ------------------------------------------------
-    elems = None
+    compiled_nl = None
     if not linear and sd is not None:
-        get = getattr(system, "nonlinear_elements", None)
-        elems = get(sd) if callable(get) else None
-    if (_USE_KERNELS and (sd is not None or time_invariant) and (linear or elems is not None)
-            and _kernels() is not None):
-        if sd is not None:
-            Ms, Cs, Ks, Fs = sd.kernel_arrays()
-            af_key = 0.0 if M_const else af
-            cache = sd.kernel_lu_cache((cM, cC, cK, af_key))
-        else:
-            Ms, Cs, Ks = (np.ascontiguousarray(X)[None] for X in (M0, C0, K0))
+        get = getattr(system, "compiled_nonlinear", None)
+        compiled_nl = get(sd) if callable(get) else None
+    if _USE_KERNELS and (sd is not None or time_invariant) and (linear or compiled_nl is not None):
+        if sd is None:  # time-invariant: M, C, K once, the force at every step
+            Ms, Cs, Ks = (X_[None] for X_ in (M0, C0, K0))
             Fs = np.empty((nsteps + 1, n))
             Fs[0] = F0
             for j in range(1, nsteps + 1):
                 Fs[j] = data(j)[3]
-            cache = _new_lu_cache(1, n)
-        u, v, a = u.copy(), v.copy(), a.copy()
-        _march_compiled(Ms, Cs, Ks, Fs, k0, M_const, u, v, a,
-                        gn if not newmark else np.zeros(n), nsteps, t0, dt, g, b, am, af,
-                        elems, Kt0, rtol, xtol, atol, max_iter, newton == "full", cache, Phi,
-                        store == "all", T, U, V, A, iters)
-        if store == "last":
-            u, v, a = U[1], V[1], A[1]
+        force, rdata, idata = compiled_nl or (kern.no_force, np.zeros(1), np.zeros(1, np.int64))
+        info = np.zeros(7)
+        status = kern.march(Ms, Cs, Ks, Fs, int(k0), c, x, int(nsteps), float(t0), force, rdata,
+                            idata, not linear, np.ascontiguousarray(Kt0), tol, int(max_iter),
+                            newton == "full", *cache, P, X, iters, info)
+        if status != kern.OK:
+            raise _step_error(kern, status, info, rtol, atol, max_iter)
     else:
-        u, v, a, Phi = _march_python(
-            nsteps, t0, dt, data, u, v, a, gn if not newmark else None, Phi, prev, nl, linear,
-            newmark, M_const, linear_lu, g, bdt2, am, af, cM, cC, cK, c_up, c_vp, rtol, xtol,
-            atol, max_iter, newton, store, T, U, V, A, iters)
+        _march_python(kern, c, x, P, data, nl, t0, nsteps, k0, M_const, sd is None and not time_invariant,
+                      Kt0, cache, tol, max_iter, newton == "full", X, iters)
     if store == "last":
-        T[1], U[1], V[1], A[1] = t0 + nsteps * dt, u, v, a
+        X[:, 1] = x[:3]
 
     mono = None
     state = None
-    if Phi is not None:
+    if sensitivity:
         state = str(sensitivity)
-        mono = np.vstack(Phi[:2]) if sensitivity == "uv" else np.vstack(Phi)
-    return NewmarkResult(t=T, u=U, v=V, a=A, iterations=iters, scheme=scheme, monodromy=mono,
-                         state=state)
+        mono = np.vstack(P[:2]) if sensitivity == "uv" else np.vstack(P)
+    return NewmarkResult(t=T, u=X[0], v=X[1], a=X[2], iterations=iters, scheme=scheme,
+                         monodromy=mono, state=state)
 
 
-def _march_python(nsteps, t0, dt, data, u, v, a, gn, Phi, prev, nl, linear, newmark, M_const,
-                  linear_lu, g, bdt2, am, af, cM, cC, cK, c_up, c_vp, rtol, xtol, atol, max_iter,
-                  newton, store, T, U, V, A, iters):
-    """The time loop in Python: for systems the compiled kernels cannot serve (Python callbacks
-    of a generic :class:`SecondOrderSystem`, time-varying systems without step data)."""
+def _checked(name: str, value: ArrayLike, shape: tuple[int, ...]) -> Array:
+    """A matrix or vector of the system as a contiguous float array of the expected shape."""
+    X = np.ascontiguousarray(value, dtype=float)
+    if X.shape != shape:
+        raise InputError(f"{name} has shape {X.shape}: expected {shape} for u0 of {shape[0]} DOFs")
+    return X
+
+
+def _nonlinear_at(nl: Callable, u: Array, t: float, n: int) -> tuple[Array, Array]:
+    """``system.nonlinear(u, t)`` checked: the force (n,) and its tangent (n, n)."""
+    f, Kt = nl(u.copy(), t)
+    return (_checked(f"system: nonlinear force at t = {t:.9g} s", f, (n,)),
+            _checked(f"system: nonlinear tangent at t = {t:.9g} s", Kt, (n, n)))
+
+
+def _march_python(kern, c, x, P, data, nl, t0, nsteps, k0, M_const, refactor, Kt0, cache, tol,
+                  max_iter, full, X, iters) -> None:
+    """The time loop in Python, for systems the compiled loop cannot serve (Python callbacks
+    of a generic :class:`SecondOrderSystem`, time-varying systems without step data): the
+    step is the compiled loop's, its pieces (``fivebar._kernels``) called from here, with the
+    system's matrices and nonlinear force from its callbacks.  Arguments as
+    ``fivebar._kernels.march`` takes them; ``refactor``: factorise the linear tangent anew
+    every step (time-varying matrices)."""
+    n = x.shape[1]
+    linear = nl is None
+    w = np.zeros((kern.NWORK, n))
+    fnl, Kt, Ktp = np.zeros(n), np.zeros((n, n)), np.array(Kt0)
+    St, piv, Mbw = np.empty((n, n)), np.empty(n, np.int64), np.empty((n, n))
+    sens = P.shape[2] > 0
+    PW = np.empty((6, n, P.shape[2]))
+    store = X.shape[1] == nsteps + 1
+    LUc, pivc, have = cache
+    info = np.zeros(7)
+    u1 = w[kern.U1]
+    Mp, Cp, Kp, _ = data(0)
+    dt = float(c[kern.DT])
+
+    def fail(status: int, j: int, t: float, **what: float) -> NewtonConvergenceError:
+        info[:] = (j, t, what.get("rn", 0.0), what.get("k_it", 0), what.get("dmin", 0.0),
+                   what.get("dmax", 0.0), what.get("ref", 0.0))
+        return _step_error(kern, status, info, tol[0], tol[2], max_iter)
+
     for j in range(1, nsteps + 1):
         t = t0 + j * dt
         M, C, K, F = data(j)
-        # the mass matrix of the inertia term: M_{n+1}, or M at t_{n+1-alpha_f} for alpha schemes
-        Mb = M if M_const else (1.0 - af) * M + af * prev[0]
-        ut = u + dt * v + c_up * a      # predictors (4.3), (4.2) without the new acceleration
-        vt = v + c_vp * a
-        hist = None if newmark else am * (Mb @ a) + af * gn
-        # start from a_{n+1} = a_n
-        u1 = ut + bdt2 * a
+        Mb = kern.inertia_mass(c, M, Mp, M_const, Mbw)
+        kern.predict(c, Mb, x, w)
+        li = (k0 + j) % LUc.shape[0]
+        if refactor:
+            have[li] = 0
         if linear:
-            v1 = vt + (g * dt) * a
-            if newmark:
-                R = Mb @ a + C @ v1 + K @ u1 - F
-            else:
-                R = (1.0 - am) * (Mb @ a) + (1.0 - af) * (C @ v1 + K @ u1 - F) + hist
-            lu = linear_lu(j, Mb, C, K)
-            u1 -= _solve(lu, R)
-            Kt1 = None
-            fnl1 = None
+            ok, dmin, dmax = kern.linear_step(c, Mb, C, K, F, fnl, x, w, LUc, pivc, have, li)
+            if not ok:
+                raise fail(kern.SINGULAR, j, t, dmin=dmin, dmax=dmax)
+            LU, LP = LUc[li], pivc[li]
         else:
             k_it = 0
-            lu = None
             du_norm = math.inf
             while True:
-                fnl1, Kt1 = nl(u1, t)
-                fnl1, Kt1 = np.asarray(fnl1, float), np.asarray(Kt1, float)
-                a1 = (u1 - ut) / bdt2
-                v1 = vt + (g * dt) * a1
-                Ma1, Cv1, Ku1 = Mb @ a1, C @ v1, K @ u1
-                R = (1.0 - am) * Ma1 + (1.0 - af) * (Cv1 + Ku1 + fnl1 - F)
-                ref = (1.0 - am) * np.linalg.norm(Ma1) + (1.0 - af) * (
-                    np.linalg.norm(Cv1) + np.linalg.norm(Ku1) + np.linalg.norm(fnl1)
-                    + np.linalg.norm(F))
-                if hist is not None:
-                    R += hist
-                    ref += np.linalg.norm(hist)
-                rn = float(np.linalg.norm(R))
+                fnl[:], Kt[:] = _nonlinear_at(nl, u1, t, n)
+                rn, ref = kern.residual(c, Mb, C, K, F, fnl, w, True)
                 if not math.isfinite(rn):
-                    raise NewtonConvergenceError(
-                        f"Newton-Raphson diverged in step {j} at t = {t:.9g} s: residual norm {rn} "
-                        f"(not finite) after {k_it} iterations", t, rn, k_it)
-                if rn <= rtol * ref + atol or du_norm <= xtol * float(np.linalg.norm(u1)):
+                    raise fail(kern.NOT_FINITE, j, t, rn=rn, k_it=k_it)
+                if kern.converged(rn, ref, du_norm, w, tol):
                     break
                 if k_it >= max_iter:
-                    raise NewtonConvergenceError(
-                        f"Newton-Raphson did not converge in step {j} at t = {t:.9g} s: residual "
-                        f"norm {rn:.3e} (tolerance {rtol:.1e} x {ref:.3e} + {atol:.1e}) after "
-                        f"{k_it} iterations (max_iter={max_iter})", t, rn, k_it)
-                if newton == "full":
-                    lu = _factor(cM * Mb + cC * C + cK * (K + Kt1), t)
-                elif lu is None:
-                    lu = linear_lu(j, Mb, C, K)
-                du = _solve(lu, R)
-                u1 = u1 - du
-                du_norm = float(np.linalg.norm(du))
+                    raise fail(kern.NO_CONVERGENCE, j, t, rn=rn, k_it=k_it, ref=ref)
+                if full:
+                    ok, dmin, dmax = kern.tangent_lu(c, Mb, C, K, Kt, True, St, piv)
+                    if not ok:
+                        raise fail(kern.SINGULAR, j, t, dmin=dmin, dmax=dmax)
+                    du_norm = kern.correct(St, piv, w)
+                else:
+                    ok, dmin, dmax = kern.linear_lu(c, Mb, C, K, LUc, pivc, have, li)
+                    if not ok:
+                        raise fail(kern.SINGULAR, j, t, dmin=dmin, dmax=dmax)
+                    du_norm = kern.correct(LUc[li], pivc[li], w)
                 k_it += 1
             iters[j - 1] = k_it
-        a1 = (u1 - ut) / bdt2
-        v1 = vt + (g * dt) * a1
-
-        if Phi is not None:
-            Pu, Pv, Pa = Phi
-            dut = Pu + dt * Pv + c_up * Pa
-            dvt = Pv + c_vp * Pa
-            das = dut / (-bdt2)
-            dR = (1.0 - am) * (Mb @ das) + (1.0 - af) * (C @ (dvt + (g * dt) * das))
-            if not newmark:
-                _, Cp, Kp, Ktp = prev
-                Kp_full = Kp if Ktp is None else Kp + Ktp
-                dR += am * (Mb @ Pa) + af * (Kp_full @ Pu + Cp @ Pv)
-            if linear:
-                lu_s = lu
-            else:  # the consistent tangent at the converged u_{n+1}
-                lu_s = _factor(cM * Mb + cC * C + cK * (K + Kt1), t)
-            du1 = -_solve(lu_s, dR)
-            da1 = (du1 - dut) / bdt2
-            Phi = (du1, dvt + (g * dt) * da1, da1)
-        prev = (M, C, K, Kt1)
-
-        if not newmark:
-            gn = C @ v1 + K @ u1 - F
-            if fnl1 is not None:
-                gn += fnl1
-        u, v, a = u1, v1, a1
-        if store == "all":
-            T[j], U[j], V[j], A[j] = t, u, v, a
-    return u, v, a, Phi
+            if sens:  # the consistent tangent at the converged u_{n+1} (Kt evaluated there)
+                ok, dmin, dmax = kern.tangent_lu(c, Mb, C, K, Kt, True, St, piv)
+                if not ok:
+                    raise fail(kern.SINGULAR, j, t, dmin=dmin, dmax=dmax)
+            LU, LP = St, piv
+        if sens:
+            kern.sensitivity(c, LU, LP, Mb, C, Kp, Cp, Kt, Ktp, not linear, P, PW)
+        kern.finish(c, C, K, F, fnl, x, w)
+        if store:
+            X[:, j] = x[:3]
+        Mp, Cp, Kp = M, C, K
 
 
-#: Use the compiled kernels where they serve (a switch for benchmarks and comparison tests).
+def _step_error(kern: Any, status: int, info: Array, rtol: float, atol: float,
+                max_iter: int) -> NewtonConvergenceError:
+    """The error of a failed step (either loop), from its status code and ``info``."""
+    j, t, rn, k_it, dmin, dmax, ref = info
+    j, k_it = int(j), int(k_it)
+    if status == kern.NOT_FINITE:
+        return NewtonConvergenceError(
+            f"Newton-Raphson diverged in step {j} at t = {t:.9g} s: residual norm {rn} "
+            f"(not finite) after {k_it} iterations", t, rn, k_it)
+    if status == kern.NO_CONVERGENCE:
+        return NewtonConvergenceError(
+            f"Newton-Raphson did not converge in step {j} at t = {t:.9g} s: residual "
+            f"norm {rn:.3e} (tolerance {rtol:.1e} x {ref:.3e} + {atol:.1e}) after "
+            f"{k_it} iterations (max_iter={max_iter})", t, rn, k_it)
+    return NewtonConvergenceError(
+        f"the effective stiffness (tangent) at t = {t:.9g} s is singular or not finite "
+        f"(smallest/largest pivot {dmin:.3e}/{dmax:.3e})", t, math.nan, 0)
+
+
+#: Use the compiled loop where it serves (a switch for benchmarks and comparison tests); the
+#: Python loop serves otherwise, with the same compiled step.
 _USE_KERNELS = True
 _KERNELS: Any = None
 
 
 def _kernels() -> Any:
-    """The compiled kernels module (imported on first use: numba is heavy), or None if numba
-    is not installed."""
+    """The compiled step and loop (``fivebar._kernels``), imported on first use (numba is
+    heavy) with the healing disk cache of :mod:`fivebar._jitcache`."""
     global _KERNELS
     if _KERNELS is None:
-        try:
-            from ._jitcache import import_cached
-        except ImportError:  # pragma: no cover - numba is a pinned dependency
-            k = False
-        else:  # a damaged cache heals, a read-only one is read, else a temporary one
-            k = import_cached(f"{__package__}._kernels")
-        _KERNELS = k
-    return _KERNELS or None
+        from ._jitcache import import_cached
+
+        _KERNELS = import_cached(f"{__package__}._kernels")
+    return _KERNELS
 
 
 def _new_lu_cache(S: int, n: int) -> tuple[Array, NDArray[np.int64], NDArray[np.uint8]]:
     return np.zeros((S, n, n)), np.zeros((S, n), dtype=np.int64), np.zeros(S, dtype=np.uint8)
-
-
-def _march_compiled(Ms, Cs, Ks, Fs, k0, M_const, u, v, a, gn, nsteps, t0, dt, g, b, am, af,
-                    elems, Kt0, rtol, xtol, atol, max_iter, full, cache, Phi, store_all, T, U, V,
-                    A, iters) -> None:
-    """Run ``fivebar._kernels.march`` and raise what the Python loop would raise."""
-    kern = _kernels()
-    n = u.size
-    nonlin = elems is not None
-    if nonlin:
-        Ge, ae, wE, idx, measure = elems
-        Kt0 = np.ascontiguousarray(Kt0, dtype=float)
-    else:
-        Ge, ae, wE, idx, measure = _NO_ELEMENTS
-        Kt0 = np.zeros((n, n))
-    if Phi is not None:
-        Pu, Pv, Pa = (np.ascontiguousarray(P, dtype=float) for P in Phi)
-        Phi[:] = [Pu, Pv, Pa]
-    else:
-        Pu = Pv = Pa = np.zeros((n, 1))
-    info = np.zeros(7)
-    status = kern.march(Ms, Cs, Ks, Fs, int(k0), bool(M_const), u, v, a, gn, int(nsteps),
-                        float(t0), float(dt), float(g), float(b), float(am), float(af), nonlin,
-                        Ge, ae, wE, idx, int(measure), Kt0, float(rtol), float(xtol), float(atol),
-                        int(max_iter), bool(full), cache[0], cache[1], cache[2],
-                        Phi is not None, Pu, Pv, Pa, bool(store_all), T, U, V, A, iters, info)
-    if status == kern.OK:
-        return
-    j, t, rn, k_it, dmin, dmax, ref = info
-    j, k_it = int(j), int(k_it)
-    if status == kern.NOT_FINITE:
-        raise NewtonConvergenceError(
-            f"Newton-Raphson diverged in step {j} at t = {t:.9g} s: residual norm {rn} "
-            f"(not finite) after {k_it} iterations", t, rn, k_it)
-    if status == kern.NO_CONVERGENCE:
-        raise NewtonConvergenceError(
-            f"Newton-Raphson did not converge in step {j} at t = {t:.9g} s: residual "
-            f"norm {rn:.3e} (tolerance {rtol:.1e} x {ref:.3e} + {atol:.1e}) after "
-            f"{k_it} iterations (max_iter={max_iter})", t, rn, k_it)
-    raise NewtonConvergenceError(
-        f"the effective stiffness (tangent) at t = {t:.9g} s is singular or not finite "
-        f"(smallest/largest pivot {dmin:.3e}/{dmax:.3e})", t, math.nan, 0)
-
-
-_NO_ELEMENTS = (np.zeros((1, 1, 1, 8)), np.zeros((1, 1, 8)), np.zeros((1, 1)),
-                np.zeros((1, 8), dtype=np.int64), 0)

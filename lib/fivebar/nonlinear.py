@@ -70,8 +70,10 @@ evaluates all elements at once: the configuration enters only through
 slopes and stretches are one product :math:`\mathbf H\mathbf u`.  A caller stepping through
 known instants computes the geometry once per instant (:class:`fivebar.dynamics.LinkageDynamics`
 does, for the S step times of a period).  The compiled element loop
-(``fivebar._kernels.nl_force``) evaluates the same definition; the tests hold the two equal to
-round-off for every strain measure.
+(``fivebar._nonlinear_kernel``) evaluates the same definition; the tests hold the two equal to
+round-off for every strain measure.  :meth:`NonlinearForce.compiled` hands it, with the
+geometry of the step times, to the compiled time loop of :mod:`fivebar.newmark`, which calls
+it as a function it is given and knows nothing of the beam.
 """
 
 from __future__ import annotations
@@ -255,7 +257,7 @@ class NonlinearForce:
         keep = np.arange(model.n) if keep is None else np.asarray(keep)
         if (keep.ndim != 1 or keep.dtype.kind not in "iu" or np.any((keep < 0) | (keep >= model.n))
                 or np.unique(keep).size != keep.size):
-            raise ValueError(f"keep = {keep!r} is not allowed: give distinct integer DOF indices in [0, {model.n})")
+            raise InputError(f"keep = {keep!r} is not allowed: give distinct integer DOF indices in [0, {model.n})")
         self.keep = keep.astype(int)
         #: number of DOFs of u, f and Kt
         self.n = n = int(keep.size)
@@ -274,7 +276,7 @@ class NonlinearForce:
         (..., n_el, 8) in the element's global DOFs, at crank angles (rad) of any common shape.
 
         With :attr:`element_dofs` and :attr:`element_weights` they are what the compiled
-        element loop (``fivebar._kernels.nl_force``) needs.
+        element loop (``fivebar._nonlinear_kernel.element_loop``) needs.
         """
         m = self.model
         betas = np.stack(np.broadcast_arrays(*m.element_angles(link_angles(m.params, *theta))), axis=-1)
@@ -282,6 +284,25 @@ class NonlinearForce:
         Ge = self._g @ R  # (..., n_el, npts, 8)
         ae = (R[..., 4, :] - R[..., 0, :]) / self._L[:, None]  # (..., n_el, 8)
         return Ge, ae
+
+    def compiled(self, *theta: ArrayLike) -> tuple:
+        """The force as the compiled time loop takes it, at the S configurations of the crank
+        angles ``theta`` (rad, arrays of S step points, one per driven crank).
+
+        Returns ``(force, rdata, idata)``: the compiled function
+        ``force(u, k, rdata, idata, f, Kt, tangent)`` (the signature
+        ``fivebar._kernels.FORCE_SIG``), which evaluates f_nl and, if ``tangent``, its Jacobian at
+        the state ``u`` and step point ``k`` (modulo S), and its data.  Compiles (once, then
+        cached on disk) on first use.
+        """
+        from ._jitcache import import_cached  # here: numba is heavy
+
+        kern = import_cached(f"{__package__}._nonlinear_kernel")
+        Ge, ae = self.element_geometry(*theta)
+        if ae.ndim != 3:
+            raise InputError(f"crank angles of shape {ae.shape[:-2]} are not allowed: give arrays of "
+                             "the S step points, shape (S,)")
+        return (kern.force,) + kern.pack(Ge, ae, self.element_weights, self.element_dofs, self.measure)
 
     @property
     def element_dofs(self) -> NDArray:
@@ -316,7 +337,7 @@ class NonlinearForce:
     def __call__(self, u: ArrayLike, *theta: float) -> tuple[NDArray, NDArray]:
         u = np.asarray(u, float)
         if u.shape != (self.n,):
-            raise ValueError(f"u has shape {u.shape}: expected ({self.n},), one state of the force's DOFs")
+            raise InputError(f"u has shape {u.shape}: expected ({self.n},), one state of the force's DOFs")
         return self.evaluate(u, self.geometry(*(float(x) for x in theta)))
 
     def energy(self, u: ArrayLike, *theta: float) -> float:
