@@ -241,7 +241,10 @@ def test_floquet_multipliers_equal_those_of_the_finite_difference_monodromy(nonl
     fd = np.linalg.eigvals(J)
     fd = fd[np.argsort(-np.abs(fd))]
     mult = st.floquet_multipliers
-    assert np.allclose(np.abs(mult[:6]), np.abs(fd[:6]), rtol=1e-5, atol=1e-9)
+    # central differences with a step of 1e-5 of the state's scale: O(1e-10) error in the Jacobian,
+    # which moves its small eigenvalues by up to ~1e-9 depending on the orbit's start (the orbit
+    # itself depends on the starting guess to its 1e-9 tolerance, e.g. on the predictor's memory)
+    assert np.allclose(np.abs(mult[:6]), np.abs(fd[:6]), rtol=1e-5, atol=1e-8)
     assert abs(mult[0]) > 0.05  # the comparison is not among vanishing multipliers
     g = st.u[-1] - st.u[0], st.v[-1] - st.v[0]
     assert _energy_norm(d, *g) <= 1e-9 * _energy_norm(d, st.u, st.v).max()
