@@ -642,6 +642,13 @@ def test_erratum_mentions_in_docstrings_become_links():
 _HASHLIKE = re.compile(r"^[0-9a-f]{16,}(\.\w+)?$|\.(png|jpe?g|svg)$", re.I)
 
 
+def _pointing_problems(main, page: Path, noun: str, what: str) -> list[str]:
+    """Paragraphs that point at "the <noun> above/below" instead of giving the number."""
+    return [f"{page.name}: paragraph {k} refers to 'the {what} above/below' instead of the {what}'s number"
+            for k, p in enumerate(main.find_all("p"), 1)
+            if re.search(rf"\bthe {noun} (above|below)\b", p.get_text(" ", strip=True), re.I)]
+
+
 def _figure_problems(page: Path) -> list[str]:
     """Every image of a chapter's text must be a numbered figure with a caption and an alt text
     that describes it (not a file name or hash); one string per problem."""
@@ -665,12 +672,7 @@ def _figure_problems(page: Path) -> list[str]:
         text = caption.get_text(" ", strip=True)
         if len(text.split()) < 5:
             problems.append(f"{where}: caption {text!r} does not say what is plotted")
-    for k, p in enumerate(main.find_all("p"), 1):
-        t = p.get_text(" ", strip=True)
-        if re.search(r"\bthe (figure|plot) (above|below)\b", t, re.I):
-            problems.append(f"{page.name}: paragraph {k} refers to 'the figure above/below' "
-                            "instead of the figure's number")
-    return problems
+    return problems + _pointing_problems(main, page, r"(figure|plot)", "figure")
 
 
 def test_every_figure_is_numbered_captioned_and_described(book):
@@ -710,12 +712,7 @@ def _table_problems(page: Path, chapter: int) -> list[str]:
         text = caption.get_text(" ", strip=True)
         if len(text.split()) < 6:
             problems.append(f"{where}: caption {text!r} does not say what is tabulated")
-    for k, p in enumerate(main.find_all("p"), 1):
-        t = p.get_text(" ", strip=True)
-        if re.search(r"\bthe tables? (above|below)\b", t, re.I):
-            problems.append(f"{page.name}: paragraph {k} refers to 'the table above/below' "
-                            "instead of the table's number")
-    return problems
+    return problems + _pointing_problems(main, page, r"tables?", "table")
 
 
 def test_every_table_is_numbered_and_captioned(book):

@@ -676,6 +676,17 @@ def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, 
 
 
 @_one_blas_thread
+
+def _state_scale(x: NDArray, scale: ArrayLike | None) -> NDArray:
+    """The scale of each state entry: ``scale`` checked, or the largest entry of ``x`` (1 when ``x`` is 0)."""
+    if scale is None:
+        big = float(np.abs(x).max())
+        return np.full(x.size, big if big > 0 else 1.0)
+    D = np.asarray(scale, float)
+    if D.shape != x.shape or not np.all(D > 0):
+        raise InputError(f"scale has shape {D.shape} or non-positive entries: give ({x.size},) positive values")
+    return D
+
 def switch_period_doubling(
     period_map: PeriodMap,
     bif: Bifurcation,
@@ -721,11 +732,7 @@ def switch_period_doubling(
         raise InputError(f"bif.kind = {bif.kind!r} is not allowed: give a period doubling")
     f2 = iterated_map(period_map, 2)
     x = np.asarray(bif.x, float)
-    if scale is None:
-        big = float(np.abs(x).max())
-        D = np.full(x.size, big if big > 0 else 1.0)
-    else:
-        D = np.asarray(scale, float)
+    D = _state_scale(x, scale)
     prob = _Problem(f2, D, float(p_scale), kwargs.get("dp", 1e-6))
     ys = np.concatenate([x / D, [bif.p / p_scale]])
     _, Phi = monodromy(period_map, x, bif.p, D)
@@ -816,13 +823,7 @@ def settle(period_map: PeriodMap, orbit: PeriodicOrbit, p: float | None = None, 
             raise InputError(f"{name} = {v!r} is not allowed: give a finite "
                              + ("non-zero number (its sign picks the side)" if name == "disturbance" else "positive number"))
     x0 = np.asarray(orbit.x, float)
-    if scale is None:
-        big = float(np.abs(x0).max())
-        D = np.full(x0.size, big if big > 0 else 1.0)
-    else:
-        D = np.asarray(scale, float)
-        if D.shape != x0.shape or not np.all(D > 0):
-            raise InputError(f"scale has shape {D.shape} or non-positive entries: give ({x0.size},) positive values")
+    D = _state_scale(x0, scale)
     w, V = np.linalg.eig((orbit.monodromy / D[:, None]) * D[None, :])
     e = np.real(V[:, np.argmax(np.abs(w))])
     x = x0 + float(disturbance) * D * e / np.abs(e).max()
