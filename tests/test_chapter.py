@@ -48,3 +48,14 @@ def test_bad_arguments_are_named():
         chapter.book_value_check(fivebar.load_params(), "x", 1.0, 1.0, rtol=-1)
     with pytest.raises(fivebar.errors.InputError, match="files = 3"):
         chapter.load(3)
+
+
+def test_a_list_written_as_a_string_is_refused_with_the_papermill_remedy(tmp_path):
+    """papermill's -p passes '["mine.toml"]' as text; reading it as one file name would fail later
+    with a missing file '["mine.toml"]'.  The error says what happened and the -y remedy, and a real
+    list of the same file loads."""
+    f = tmp_path / "mine.toml"
+    f.write_text("[assumptions]\ncrank_speed_rpm = 120\n")
+    with pytest.raises(fivebar.errors.InputError, match=r"list written as a string.*-y"):
+        chapter.load(f'["{f}"]')
+    assert chapter.load([str(f)]).crank_speed_rpm == 120

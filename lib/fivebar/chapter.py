@@ -44,6 +44,10 @@ Files = str | Path | Iterable[str | Path]
 
 
 def _paths(name: str, files: Files) -> list[Path]:
+    if isinstance(files, str) and files.strip().startswith("["):
+        # papermill's -p passes a list as its text: '["mine.toml"]' is not a file name
+        raise InputError(f"{name} = {files!r} is not allowed: it is a list written as a string (papermill's -p "
+                         "passes text); give a list, e.g. papermill ... -y 'PARAMS_FILES: [mine.toml]'")
     if isinstance(files, (str, Path)):
         files = [files]
     try:
