@@ -301,17 +301,14 @@ def _myst_table(df: pd.DataFrame, digits: int | dict[str, int], caption: str, na
     from IPython.display import Markdown
 
     def cell(col, v) -> str:
-        if isinstance(v, (float,)) or (hasattr(v, "dtype") and getattr(v.dtype, "kind", "") == "f"):
-            v = float(v)
-            if not math.isfinite(v):
-                return "–"
+        if hasattr(v, "item") and not isinstance(v, str):
+            v = v.item()  # a numpy scalar as the Python number
+        if v is None or (isinstance(v, float) and not math.isfinite(v)):
+            return "–"
+        if isinstance(v, float):
             if isinstance(digits, dict):
                 return f"{v:.{digits[col]}f}" if col in digits else f"{v:.4g}"
             return f"{v:.{digits}g}"
-        if hasattr(v, "item") and not isinstance(v, str):
-            v = v.item()
-        if v is None or (isinstance(v, float) and math.isnan(v)):
-            return "–"
         return str(v).replace("|", "\\|").replace("\n", " ")
 
     head = [str(c).replace("|", "\\|") for c in df.columns]
