@@ -60,6 +60,7 @@ from numpy.typing import NDArray
 from .errors import ComputationError, InputError
 from .kinematics import crank_laws, link_angles, positions
 from .params import Params
+from .response import DIRECTIONS
 
 __all__ = [
     "MultibodyError",
@@ -71,7 +72,6 @@ __all__ = [
     "multibody_steady_state",
 ]
 
-_DIRECTIONS = ("transverse", "longitudinal", "chord")
 #: default mesh: twice the description's elements on every link (for the five-bar (2, 4, 4, 2)
 #: on L1..L4: couplers even, so a node sits at the midpoint)
 DEFAULT_ELEMENTS = None
@@ -382,8 +382,8 @@ class MultibodySteadyState:
         names = self.params.linkage.link_names
         if link not in names:
             raise InputError(f"link = {link!r} is not allowed: use one of {list(names)}")
-        if direction not in _DIRECTIONS:
-            raise InputError(f"direction = {direction!r} is not allowed: use one of {list(_DIRECTIONS)}")
+        if direction not in DIRECTIONS:
+            raise InputError(f"direction = {direction!r} is not allowed: use one of {list(DIRECTIONS)}")
         nodes = self.positions[link].shape[1] - 1
         if not (0.0 <= s <= 1.0) or abs(s * nodes - round(s * nodes)) > 1e-9:
             raise InputError(f"s = {s!r} is not allowed for link = {link!r}: its {nodes} elements have nodes at "
