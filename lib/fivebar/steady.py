@@ -47,7 +47,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from .errors import FivebarError, InputError, array, number
+from .errors import FivebarError, InputError, array, flag, number
 from .dynamics import LinkageDynamics
 from .eigen import frozen_modes
 from .newmark import NewtonConvergenceError, Scheme, integrate
@@ -709,8 +709,7 @@ def steady_state(
     """
     if method not in ("shooting", "march"):
         raise InputError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
-    if not isinstance(explain, bool):
-        raise InputError(f"explain = {explain!r} is not allowed: give True or False")
+    explain = flag("explain", explain)
     if explain and method != "shooting":
         raise InputError(f"explain = True and method = {method!r} are not allowed together: explain needs the "
                          "Floquet multipliers of shooting (method='shooting')")
