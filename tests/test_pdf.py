@@ -312,3 +312,48 @@ def test_figures_and_bibliography(reader, pages_text: list[str]) -> None:
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(pytest.main([__file__, "-q"]))
+
+
+def test_long_words_in_table_cells_get_break_points() -> None:
+    """A long word in a table cell (the errata's "Verified by" test names, code) may break after
+    ``_ . / :: ( , =`` in the PDF: TeX does not hyphenate it, so it ran past its column.  Short words
+    and the text itself are left as they are (the break points are raw LaTeX)."""
+    from docutils import nodes
+
+    import fivebar_latex
+
+    name = "tests/test_elements.py::test_mass_matrix_x"
+    long_code, short_code = nodes.literal(text=name), nodes.literal(text="steady_state")
+    prose = nodes.Text("by test_every_interpolation_condition_holds, e.g. this")
+    cell = nodes.entry("", nodes.paragraph("", "", long_code, nodes.Text(" and "), short_code),
+                       nodes.paragraph("", "", prose))
+    table = nodes.table("", nodes.tgroup("", nodes.tbody("", nodes.row("", cell))))
+    fivebar_latex._breakable_words(table, fivebar_latex.TABLE_WORD_CHARS)
+    breaks = list(long_code.findall(nodes.raw))
+    assert len(breaks) == 7  # after / _ . :: _ _ _
+    assert all(b.astext() == r"\allowbreak{}" and b["format"] == "latex" for b in breaks)
+    assert "".join(t for t in long_code.findall(nodes.Text) if t.parent is long_code) == name
+    assert not list(short_code.findall(nodes.raw)) and short_code.astext() == "steady_state"
+    para = cell.children[1]
+    assert len(list(para.findall(nodes.raw))) == 4  # after the four _ of the long word only
+    assert "".join(t for t in para.findall(nodes.Text) if t.parent is para) == str(prose)
+
+
+#: LaTeX's overfull boxes wider than this (pt; 10 pt is 3.5 mm) are text past the edge of its
+#: column or of the page that a reader sees
+OVERFULL_PT = 10.0
+
+
+def test_nothing_runs_past_its_column_or_the_page(pdf: Path) -> None:
+    """The typesetting log (``_build/pdf/latex/fivebar.log``) has no overfull line box wider than
+    :data:`OVERFULL_PT`: a long test name in the errata, a call written out in the prose or a
+    too-wide display equation printed past the edge (38 of them before the break points of
+    ``book/_ext/fivebar_latex.py``, the widest 205 pt)."""
+    log = pdf.parent / "latex" / (pdf.stem + ".log")
+    assert log.is_file(), f"{log} is missing: the PDF's typesetting log"
+    text = log.read_text(errors="replace")
+    wide = [(float(m.group(1)), m.group(2), text[m.end():m.end() + 120].strip().splitlines()[0])
+            for m in re.finditer(r"Overfull \\hbox \(([\d.]+)pt too wide\) ([^\n]*)", text)
+            if float(m.group(1)) > OVERFULL_PT]
+    assert not wide, f"{len(wide)} line(s) past the text width: " + "; ".join(
+        f"{w:.0f} pt {where}: {snippet!r}" for w, where, snippet in wide[:8])

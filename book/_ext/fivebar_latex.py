@@ -18,6 +18,9 @@ number, and the index (``\\printindex``, built by makeindex) lists the terms of
 * **The root page** (``book/index``) is the printed book's first, unnumbered chapter; its
   title is the title page's, so the chapter is headed "About this book".
 * **Long tables** break across pages (no page left blank before a table, none running off).
+* **Long words** in table cells (code, test names) and long inline code in the text may break
+  after ``_ . / :: ( , =``: TeX does not hyphenate them, so a name such as
+  ``tests/test_elements.py::test_every_interpolation_condition_holds`` ran past its column.
 * **Web-only pages**: the API reference is replaced by a one-paragraph chapter that points to
   the HTML book's API page (the PDF stays a book: 102 of its 291 pages were API reference),
   and the "References" page, empty once its bibliography has moved to the end of the book, is
@@ -26,6 +29,7 @@ number, and the index (``\\printindex``, built by makeindex) lists the terms of
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -57,6 +61,51 @@ def numbered_docs(app: Sphinx) -> dict[str, bool]:
 
 def _raw(tex: str) -> nodes.raw:
     return nodes.raw("", tex + "\n", format="latex")
+
+
+#: words (runs without spaces) longer than this many characters get break points (see
+#: below): in a table cell, any word (code, the errata's test names such as
+#: ``test_every_interpolation_condition_holds``; a narrow column holds about 15 characters) ...
+TABLE_WORD_CHARS = 12
+#: ... and in running text, inline code (a call written out in the prose)
+CODE_WORD_CHARS = 24
+#: a break point is allowed after each of these (longest first: "::" before ".")
+_WORD_BREAKS = re.compile(r"(::|_|\.|/|\(|,|=)")
+_SKIP = (nodes.raw, nodes.math, nodes.math_block, nodes.literal_block)
+
+
+def _breakable_words(node: nodes.Node, longer_than: int) -> None:
+    """Words of ``node`` longer than ``longer_than`` characters may break after
+    ``_ . / :: ( , =``: each such character is followed by a raw ``\\allowbreak{}`` (LaTeX
+    only; the HTML and the text are unchanged).  TeX does not hyphenate such a word, so it ran
+    past its column or the page's edge."""
+    long_word = re.compile(r"\S{%d,}" % (longer_than + 1))
+    for text in list(node.findall(nodes.Text)):
+        if isinstance(text.parent, _SKIP):
+            continue
+        value = str(text)
+        if not long_word.search(value):
+            continue
+        new: list[nodes.Node] = []
+        at = 0
+        for word in long_word.finditer(value):
+            pieces = [x for x in _WORD_BREAKS.split(word.group()) if x]
+            head = value[at:word.start()]
+            for i, piece in enumerate(pieces):
+                head += piece
+                if _WORD_BREAKS.fullmatch(piece) and i < len(pieces) - 1:
+                    new += [nodes.Text(head), nodes.raw("", r"\allowbreak{}", format="latex")]
+                    head = ""
+            if head:
+                new.append(nodes.Text(head))
+            at = word.end()
+        if value[at:]:
+            new.append(nodes.Text(value[at:]))
+        parent = text.parent
+        i = parent.index(text)
+        parent.remove(text)
+        for k, piece in enumerate(new):
+            parent.insert(i + k, piece)
 
 
 #: a longtable whose columns' natural widths add up to more characters than this is set in
@@ -146,7 +195,9 @@ class PrintedBook(SphinxPostTransform):
     def _long_tables(self) -> None:
         """Tables of more than a few rows break across pages (LaTeX's longtable): a table that
         cannot break is pushed whole to the next page, leaving most of a page blank, or runs
-        off the bottom of the page when it is longer than one (the course map, the errata)."""
+        off the bottom of the page when it is longer than one (the course map, the errata).
+        Then long words in tables, and long inline code anywhere, get their break points
+        (after the column widths are measured: a break point is not text)."""
         for table in list(self.document.findall(nodes.table)):
             rows = sum(1 for _ in table.findall(nodes.row))
             if rows <= LONG_TABLE_ROWS or "longtable" in table["classes"]:
@@ -161,6 +212,10 @@ class PrintedBook(SphinxPostTransform):
                 table.parent.insert(at + 1, _raw(r"\endgroup\addtocounter{table}{-1}"))
                 table.parent.insert(at, _raw(r"\begingroup\renewcommand{\tablename}{}"
                                              r"\renewcommand{\thetable}{}"))
+        for table in list(self.document.findall(nodes.table)):
+            _breakable_words(table, TABLE_WORD_CHARS)
+        for literal in list(self.document.findall(nodes.literal)):  # (pieces made above are short)
+            _breakable_words(literal, CODE_WORD_CHARS)
 
     def _unlink_api(self) -> None:
         """Links into the API page (not printed) become their text (a name in code font)."""
