@@ -47,10 +47,12 @@ from .errors import number
 __all__ = ["MAX_BYTES", "MAX_ENTRIES", "STORE", "CacheSize", "Store", "cache_size", "clear_cache", "memoised"]
 
 #: The store's default byte budget: 1 GiB.  The largest entries are the samples of one set-up
-#: and its dynamics (M, C, K, F and one LU factor per scheme: about 4 S n^2 doubles, 20 MB at
-#: S = 1600 with the paper's mesh, n = 26), so a sequence of S = 50 ... 3200 of
-#: ``steady_state(..., tol=...)`` and a sweep's speeds fit; a sweep's parent and two worker
-#: processes (one per core of the project's 2-core, 24 GiB machines) hold at most 3 GiB.
+#: with its LU factors (about 4 S n^2 doubles: 35 MB at S = 1600 with the paper's mesh, n = 26;
+#: 280 MB at S = 12800, the finest ``steady_state(..., tol=...)`` tries), so a doubling
+#: sequence up to S = 6400 and the set-ups of a sweep fit at once, while a sweep's parent and
+#: its two worker processes (one per core of the project's 2-core, 24 GiB machines) hold at
+#: most 3 GiB.  (Before one store: 512 MiB for the samples and as much for the nonlinear
+#: geometry, the dynamics of a set-up and the sweep points unbounded.)
 MAX_BYTES = 2**30
 #: The store's default bound on entries: every point of a sweep of a few thousand speeds stays.
 MAX_ENTRIES = 4096

@@ -622,7 +622,7 @@ class PeriodicStepData:
         (cM, cC, cK, alpha_f)``: the factors of ``cM Mb + cC C_k + cK K_k`` with ``Mb = (1 -
         alpha_f) M_k + alpha_f M_{k-1}`` (``alpha_f`` 0 when M is constant) at each step point
         ``k``, filled lazily by the time loop (either loop: one cache).  Kept in the library's
-        store with this object as its owner (:meth:`_lu_factors` lists them)."""
+        store with this object as its owner."""
         slot = ("newmark.lu", id(self))
         factors = STORE.lookup(slot)  # (an entry of an object gone is forgotten before this)
         if factors is None or key not in factors:
