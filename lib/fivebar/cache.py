@@ -160,6 +160,9 @@ def _filled(cell) -> bool:
     return True
 
 
+_MISSING = object()  # no entry (None can be a value)
+
+
 def _hashable(key: Any) -> bool:
     try:
         hash(key)
@@ -230,12 +233,9 @@ class Store:
         ``make()``, not stored)."""
         if not _hashable(key):
             return make()
-        with self._lock:
-            self._bury()
-            hit = self._data.get(key)
-            if hit is not None:
-                self._data.move_to_end(key)
-                return hit[0]
+        hit = self._find(key, _MISSING, "touch")
+        if hit is not _MISSING:
+            return hit
         value = make()
         with self._lock:
             hit = self._data.get(key)
@@ -248,16 +248,7 @@ class Store:
     def lookup(self, key: Hashable, default: Any = None, *, touch: bool = True) -> Any:
         """The value stored under ``key``, or ``default``; ``touch=False`` leaves its place in
         the order of use (a look that is not a use)."""
-        if not _hashable(key):
-            return default
-        with self._lock:
-            self._bury()
-            hit = self._data.get(key)
-            if hit is None:
-                return default
-            if touch:
-                self._data.move_to_end(key)
-            return hit[0]
+        return self._find(key, default, "touch" if touch else "look")
 
     def put(self, key: Hashable, value: Any, owner: Any = None) -> None:
         """Store ``value`` under ``key``, replacing what was there (an unhashable key: nothing);
@@ -272,6 +263,17 @@ class Store:
 
     def pop(self, key: Hashable, default: Any = None) -> Any:
         """Remove the entry of ``key`` and return its value (``default`` if there is none)."""
+        return self._find(key, default, "pop")
+
+    def keys(self, kind: str) -> list[Hashable]:
+        """The keys whose first item is ``kind``, least recently used first."""
+        with self._lock:
+            self._bury()
+            return [k for k in self._data if isinstance(k, tuple) and k and k[0] == kind]
+
+    def _find(self, key, default, how: str):
+        """The value of ``key`` (or ``default``), and ``how``: "touch" makes it the newest,
+        "pop" removes it, "look" leaves it."""
         if not _hashable(key):
             return default
         with self._lock:
@@ -279,14 +281,11 @@ class Store:
             hit = self._data.get(key)
             if hit is None:
                 return default
-            self._forget(key)
+            if how == "pop":
+                self._forget(key)
+            elif how == "touch":
+                self._data.move_to_end(key)
             return hit[0]
-
-    def keys(self, kind: str) -> list[Hashable]:
-        """The keys whose first item is ``kind``, least recently used first."""
-        with self._lock:
-            self._bury()
-            return [k for k in self._data if isinstance(k, tuple) and k and k[0] == kind]
 
     # --- the count -----------------------------------------------------------------------------
     def _add(self, key, value, owner) -> None:
