@@ -61,16 +61,12 @@ def _t(fn, repeats=1):
 
 
 def _clear():
-    from fivebar import dynamics
-    dynamics._SAMPLE_CACHE.clear()
-    dynamics._MODELS.clear()
-    dynamics._GEOMETRY.clear()
-    from fivebar import steady
-    steady._ORBITS.clear()
+    import fivebar
+    fivebar.clear_cache()
 
 
 def _first(fn, repeats=1):
-    """Like :func:`_t`, each run with the model caches emptied first (a first call)."""
+    """Like :func:`_t`, each run with the library's store emptied first (fivebar.clear_cache(): a first call)."""
     ts = []
     for _ in range(repeats):
         _clear()

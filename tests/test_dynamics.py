@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import fivebar
-from fivebar import load_params
+from fivebar import clear_cache, load_params
+from fivebar.cache import STORE
 from fivebar.dynamics import LinkageDynamics, modal_damping
 from fivebar.newmark import GeneralizedAlpha, Newmark
 from fivebar.steady import SteadyStateError, march, shooting, steady_state
@@ -179,31 +180,27 @@ def test_thin_section_nonlinear_shooting_starts_from_the_nonlinear_static_state(
 def test_model_sampled_once_for_all_speeds_equals_direct_sampling():
     """M, C, K are speed independent at the step times and F scales with the speed squared:
     the cached arrays of a second speed must equal sampling that speed afresh."""
-    from fivebar import dynamics as dmod
-
     p = load_params()
-    dmod._SAMPLE_CACHE.clear()
+    clear_cache()
     LinkageDynamics(p, crank_speed_rpm=60, steps_per_period=50, motors=False)
-    assert len(dmod._SAMPLE_CACHE) == 1
+    assert len(STORE.keys("dynamics.samples")) == 1
     d = LinkageDynamics(p, crank_speed_rpm=437, steps_per_period=50, motors=False)
-    assert len(dmod._SAMPLE_CACHE) == 1  # served from the cache
+    assert len(STORE.keys("dynamics.samples")) == 1  # served from the cache
     M, C, K, F = d._sample(d.t)  # direct
     sd = d.step_data
     for X, Y in ((sd.M, M), (sd.C, C), (sd.K, K), (sd.F, F)):
         assert np.allclose(X, Y, rtol=1e-10, atol=1e-12 * np.abs(Y).max())
     assert np.abs(F).max() > 0  # the load is not trivially zero
     LinkageDynamics(p, crank_speed_rpm=60, steps_per_period=50, motors=True)
-    assert len(dmod._SAMPLE_CACHE) == 2  # motors are part of the key
+    assert len(STORE.keys("dynamics.samples")) == 2  # motors are part of the key
 
 
 @pytest.mark.parametrize("S", [40, 80])
 def test_samples_from_half_or_double_S_equal_direct_sampling(S):
     """Doubling or halving S reuses the cached samples (the step times of S are the even ones
     of 2 S): the arrays must equal sampling afresh, and the cache must have been used."""
-    from fivebar import dynamics as dmod
-
     p = load_params()
-    dmod._SAMPLE_CACHE.clear()
+    clear_cache()
     LinkageDynamics(p, crank_speed_rpm=200, steps_per_period=S // 2 if S == 80 else 2 * S, motors=False)
     calls = []
     real = LinkageDynamics._sample
@@ -280,7 +277,7 @@ def test_a_new_speed_predicted_from_the_last_meets_the_tolerance_and_the_cold_st
     import fivebar.steady as st
 
     s = dict(motors=False, nonlinear=True)
-    monkeypatch.setattr(st, "_ORBITS", {})
+    clear_cache()
     count = {"mono": 0, "all": 0}
     period = st._period
 
@@ -298,10 +295,10 @@ def test_a_new_speed_predicted_from_the_last_meets_the_tolerance_and_the_cold_st
     for k in (1, 2):
         speed = rpm * (1.0 + 0.01 * k)
         warm, warm_mono, warm_cost = cost(crank_speed_rpm=speed)
-        saved = dict(st._ORBITS)
-        st._ORBITS.clear()
+        saved = {k: STORE.pop(k) for k in STORE.keys(st._ORBITS)}
         cold, cold_mono, cold_cost = cost(crank_speed_rpm=speed)
-        st._ORBITS.update(saved)
+        for k, memo in saved.items():
+            STORE.put(k, memo)
         ref = steady_state(P, crank_speed_rpm=speed, steps_per_period=3200, **s)
         S = warm.dynamics.steps
         assert S == cold.dynamics.steps and warm.accuracy["tried"][:-1] == cold.accuracy["tried"][:-1]
@@ -365,22 +362,3 @@ def test_newton_picard_shooting_reaches_the_newton_orbit(nonlinear, monkeypatch)
         a, b = picard.midpoint_mm(link), newton.midpoint_mm(link)
         assert np.abs(a - b).max() <= 1e-7 * np.ptp(b)
     assert np.allclose(picard.floquet_multipliers[:4], newton.floquet_multipliers[:4], rtol=1e-6)
-
-
-def test_sample_cache_is_bounded_by_memory(monkeypatch):
-    """The model cache drops its oldest entries when the arrays it holds pass the byte bound,
-    and always keeps the newest."""
-    from fivebar import dynamics as dmod
-
-    p = load_params()
-    dmod._SAMPLE_CACHE.clear()
-    LinkageDynamics(p, steps_per_period=40, motors=False)
-    one = dmod._nbytes(next(iter(dmod._SAMPLE_CACHE.values())))
-    monkeypatch.setattr(dmod, "_CACHE_BYTES", int(3.05 * one))  # sizes go with S: 40 + 30 + 50 fit,
-    for S in (30, 50, 70):  # then 70 pushes out the two oldest
-        LinkageDynamics(p, steps_per_period=S, motors=False)
-        assert len(dmod._SAMPLE_CACHE) == {30: 2, 50: 3, 70: 2}[S]
-    assert [k[1] for k in dmod._SAMPLE_CACHE] == [50, 70]
-    monkeypatch.setattr(dmod, "_CACHE_BYTES", 1)
-    LinkageDynamics(p, steps_per_period=90, motors=False)
-    assert [k[1] for k in dmod._SAMPLE_CACHE] == [90]  # the newest stays

@@ -64,7 +64,7 @@ SWEEP = PRELUDE + textwrap.dedent("""
         except sw.SweepInterrupted as exc:
             print(json.dumps({"rows": len(exc.results), "signal": exc.signal,
                               "speeds": exc.results["speed (r/min)"].tolist(),
-                              "cached": len(sw._CACHE), "t": time.monotonic()}), flush=True)
+                              "cached": len(fivebar.cache.STORE.keys(sw._POINTS)), "t": time.monotonic()}), flush=True)
 """)
 
 WRITER = PRELUDE + textwrap.dedent("""

@@ -411,8 +411,8 @@ def test_step_data_matches_direct_evaluation(linear, scheme):
     assert np.max(np.abs(r1.monodromy - r2.monodromy)) < 1e-10 * np.max(np.abs(r1.monodromy))
     if linear:  # the linear tangents were factorised once per step point and reused
         # (one cache for both loops)
-        assert len(sd._lu) == 1
-        assert all(next(iter(sd._lu.values()))[2])
+        assert len(sd._lu_factors()) == 1
+        assert all(next(iter(sd._lu_factors().values()))[2])
 
 
 def test_time_invariant_fast_path_matches_general_path():

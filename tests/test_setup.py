@@ -123,7 +123,7 @@ def test_the_default_scheme_is_defined_once():
 def test_generic_solvers_import_nothing_of_the_linkage():
     import ast
 
-    generic = {"newmark", "_kernels", "_jitcache", "eigen", "errors", "newton", "modal_equations", "multiscale",
+    generic = {"cache", "newmark", "_kernels", "_jitcache", "eigen", "errors", "newton", "modal_equations", "multiscale",
                "response_curves", "periodic", "continuation"}
     for name in sorted(generic):
         tree = ast.parse((LIB / f"{name}.py").read_text())

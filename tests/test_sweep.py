@@ -8,7 +8,9 @@ import pytest
 
 import fivebar
 from fivebar.resonance import resonance_speeds
-from fivebar.sweep import SweepError, clear_cache, match_peaks, speed_sweep, sweep_peaks
+from fivebar import clear_cache
+from fivebar.cache import STORE
+from fivebar.sweep import SweepError, match_peaks, speed_sweep, sweep_peaks
 
 SPEEDS = [100.0, 700.0, 1300.0]
 
@@ -49,11 +51,11 @@ def test_threads_and_cache(params, serial):
     _same(a.iloc[::-1].reset_index(drop=True), serial)
     from fivebar import sweep as module
 
-    assert len(module._CACHE) == 3
+    assert len(STORE.keys(module._POINTS)) == 3
     b = speed_sweep(params, SPEEDS, progress=False)  # served from the cache, in the order asked
     _same(b, serial)
     clear_cache()
-    assert not module._CACHE
+    assert not STORE.keys(module._POINTS)
 
 
 def test_quasi_static_limit(params):

@@ -12,6 +12,7 @@ or the unit in the name (``crank_speed_rpm``, ``SteadyState.midpoint_mm``, ``cra
 # The facade is lazy (PEP 562): ``import fivebar`` loads no heavy module (scipy submodules,
 # matplotlib, pandas, control, numba); a name is imported from its module on first use.
 _FACADE = {
+    "clear_cache": "cache",
     "linear_model": "control_model",
     "FivebarError": "errors",
     "PAPER_SCHEME": "setup", "Setup": "setup",
@@ -81,6 +82,7 @@ __all__ = [
     "UnstableParametersError",
     "beam_element",
     "campbell_diagram",
+    "clear_cache",
     "excitation_frequencies",
     "integrate",
     "linear_model",

@@ -50,6 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 from .eigen import frozen_modes
 from .errors import ComputationError, InputError
 from .assembly import Model, build_model
+from .cache import STORE
 from .kinematics import crank_laws, rigid_state
 from .newmark import PeriodicStepData, _blas_threads
 from .nonlinear import ElementGeometry, NonlinearForce
@@ -57,64 +58,31 @@ from .params import Params
 
 __all__ = ["LinkageDynamics", "modal_damping"]
 
+# Kept in the library's one store (:mod:`fivebar.cache`), under these kinds of key:
 #: (params without the speed, S, mesh, motors) -> (M, C, K, F / Omega^2) at the S step times
-_SAMPLE_CACHE: dict = {}
-#: the caches of quantities at the step times keep at most this many entries and bytes each
-_CACHE_SIZE, _CACHE_BYTES = 8, 512 * 2**20
-
-
-def _nbytes(obj) -> int:
-    """Bytes of the arrays in ``obj`` (an array, or a tuple of them, nested)."""
-    if isinstance(obj, np.ndarray):
-        return obj.nbytes
-    return sum(_nbytes(x) for x in obj) if isinstance(obj, tuple) else 0
-
-
-def _recent(cache: dict, key, make, size: int = 8, max_bytes: int | None = None):
-    """``cache[key]``, made by ``make()`` on a miss; the ``size`` most recent are kept, and
-    with ``max_bytes`` the oldest go while the arrays held exceed it (the newest stays).  An
-    unhashable key (a parameter set holding a list, say) is not cached: ``make()`` each time."""
-    try:
-        hash(key)
-    except TypeError:
-        return make()
-    hit = cache.pop(key, None)
-    if hit is None:
-        hit = make()
-    cache[key] = hit
-    while len(cache) > 1 and (len(cache) > size or (
-            max_bytes is not None and sum(_nbytes(v) for v in cache.values()) > max_bytes)):
-        cache.pop(next(iter(cache)))
-    return hit
-
-
-_MODELS: dict = {}
-_SPEED_FREE: dict = {}
+_SAMPLES = "dynamics.samples"
 #: ("geometry" or "elements", sample key) -> the nonlinear force's configuration at the S steps
-_GEOMETRY: dict = {}
+_STEP_TIMES = "dynamics.step_times"
 
 
 def _model(params: Params, elements_per_link, motors: bool) -> Model:
     """:func:`fivebar.assembly.build_model`, built once per parameter set, mesh and motors (the
     model is not changed after it is built; the steady state to a tolerance builds one
     :class:`LinkageDynamics` per S)."""
-    return _recent(_MODELS, (params, elements_per_link, motors),
-                   lambda: build_model(params, elements_per_link=elements_per_link, motors=motors))
+    return STORE.get(("dynamics.model", params, elements_per_link, motors),
+                     lambda: build_model(params, elements_per_link=elements_per_link, motors=motors))
 
 
 def _speed_free(params: Params) -> Params:
     """The parameter set at 1 r/min (the sample cache's key), made once per parameter set."""
-    return _recent(_SPEED_FREE, params, lambda: params.replace(crank_speed_rpm=1.0))
-
-
-_AT_SPEED: dict = {}
+    return STORE.get(("dynamics.speed_free", params), lambda: params.replace(crank_speed_rpm=1.0))
 
 
 def _at_speed(params: Params, rpm: float) -> Params:
     """``params.replace(crank_speed_rpm=rpm)``, made once per parameter set and speed (the S
     compared by ``steady_state(..., tol=...)`` share it; validating a parameter set takes a
     millisecond)."""
-    return _recent(_AT_SPEED, (params, float(rpm)), lambda: params.replace(crank_speed_rpm=rpm))
+    return STORE.get(("dynamics.at_speed", params, float(rpm)), lambda: params.replace(crank_speed_rpm=rpm))
 
 
 def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
@@ -209,12 +177,14 @@ class LinkageDynamics:
         At constant crank speed the step times k T / S meet the same crank angles at every
         speed, so M, K, the frozen modes and C do not depend on the speed, and F = -M u_r''
         scales with its square.  The cache key is the parameter set with the speed taken out,
-        S, the mesh and the motors (no external force P); the arrays are read-only.
+        S, the mesh and the motors (no external force P); the arrays are read-only, and this
+        object's step data holds the stored arrays themselves (F scaled to the speed), not a copy.
         """
         if self._P is not None or self.params.damping_model == "stiffness":
             return self._sample(t)  # (stiffness damping: K holds a term linear in the speed)
         p = self.params
-        key = (_speed_free(p) if speed_free is None else speed_free, self.steps, elements_per_link, bool(motors))
+        key = (_SAMPLES, _speed_free(p) if speed_free is None else speed_free, self.steps, elements_per_link,
+               bool(motors))
         try:
             hash(key)
         except TypeError:  # an unhashable parameter set: no cache
@@ -230,7 +200,7 @@ class LinkageDynamics:
                     X.flags.writeable = False
                 hit = (M, C, K, F / W2)
             return hit
-        M, C, K, Fn = _recent(_SAMPLE_CACHE, key, make, _CACHE_SIZE, _CACHE_BYTES)
+        M, C, K, Fn = STORE.get(key, make)
         return M, C, K, Fn * W2
 
     def _at_step_times(self, what: str, make):
@@ -238,7 +208,7 @@ class LinkageDynamics:
         kept beside the samples (same key)."""
         if self._key is None:
             return make()
-        return _recent(_GEOMETRY, (what, self._key), make, 2 * _CACHE_SIZE, _CACHE_BYTES)
+        return STORE.get((_STEP_TIMES, what, self._key), make)
 
     def _nested(self, key: tuple, t: NDArray, W2: float) -> tuple | None:
         """The samples at S from those at 2 S (every other one) or at S / 2 (computing only the
@@ -246,11 +216,11 @@ class LinkageDynamics:
         of k T / (2 S), to the last bit (halving is exact), so halving or doubling S, as
         :func:`fivebar.steady.steady_state` does to reach a tolerance, samples no time twice."""
         S = self.steps
-        fine = _SAMPLE_CACHE.get(key[:1] + (2 * S,) + key[2:])
+        fine = STORE.lookup(key[:2] + (2 * S,) + key[3:], touch=False)
         if fine is not None:
             out = tuple(np.ascontiguousarray(X[::2]) for X in fine)
         else:
-            coarse = _SAMPLE_CACHE.get(key[:1] + (S // 2,) + key[2:]) if S % 2 == 0 else None
+            coarse = STORE.lookup(key[:2] + (S // 2,) + key[3:], touch=False) if S % 2 == 0 else None
             if coarse is None:
                 return None
             M, C, K, F = self._sample(t[1::2])

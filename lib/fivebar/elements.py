@@ -37,13 +37,13 @@ the torsional mass.  :math:`(\bar K_{11})_{12}` is read as 0 (errata E11).
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import Literal
 
 import numpy as np
 from numpy.polynomial import polynomial as P
 
+from .cache import memoised
 from .eigen import frozen_modes
 from .errors import InputError
 from .params import Motor
@@ -183,7 +183,7 @@ def gauss_points(n: int, L: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * L * (t + 1.0), 0.5 * L * w
 
 
-@functools.lru_cache(maxsize=32)
+@memoised
 def _legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
     """Gauss-Legendre nodes and weights on [-1, 1], computed once per order (read-only)."""
     t, w = np.polynomial.legendre.leggauss(n)
@@ -283,7 +283,7 @@ def beam_element(
     return M, K
 
 
-@functools.lru_cache(maxsize=64)
+@memoised
 def _element_integrals(L: float) -> tuple[np.ndarray, ...]:
     """The integrals of (A.8) over an element of length L, made once per length (read-only):
     the Gram matrices of the shape functions and of their first and second derivatives, and

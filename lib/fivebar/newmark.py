@@ -146,6 +146,7 @@ from typing import Any, Literal, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .cache import STORE
 from .errors import ComputationError, FivebarError, InputError, InputTypeError, array, choice, flag, memory, number
 
 try:  # optional: limit BLAS threads inside the time loop (see ``integrate(blas_threads=...)``)
@@ -550,7 +551,9 @@ class PeriodicStepData:
     Time point ``k`` is ``t0 + k * period / S``; point ``S`` equals point 0 (periodicity).
     :func:`integrate` reads ``M, C, K, F`` from here instead of calling the system, and caches
     the LU factorisation of each step's linear tangent (per scheme and step), so that later
-    periods cost only triangular solves.
+    periods cost only triangular solves.  The factors are this object's, kept in the library's
+    store (:mod:`fivebar.cache`, so that its byte bound counts them) for as long as this object
+    lives, or until the store lets them go (the next period factorises again).
 
     Parameters
     ----------
@@ -590,7 +593,6 @@ class PeriodicStepData:
         self.F = np.broadcast_to(F, (S, n))
         self.t0, self.period, self.steps, self.n = float(t0), float(period), int(S), int(n)
         self.dt = self.period / self.steps
-        self._lu: dict[tuple[float, float, float, float], Any] = {}
         self._kernel_arrays: tuple[Array, Array, Array, Array] | None = None
 
     @classmethod
@@ -619,10 +621,20 @@ class PeriodicStepData:
         """The per-step LU cache of the linear tangent, ``(LU, piv, filled)``, for ``key =
         (cM, cC, cK, alpha_f)``: the factors of ``cM Mb + cC C_k + cK K_k`` with ``Mb = (1 -
         alpha_f) M_k + alpha_f M_{k-1}`` (``alpha_f`` 0 when M is constant) at each step point
-        ``k``, filled lazily by the time loop (either loop: one cache)."""
-        if key not in self._lu:
-            self._lu[key] = _new_lu_cache(self.steps, self.n)
-        return self._lu[key]
+        ``k``, filled lazily by the time loop (either loop: one cache).  Kept in the library's
+        store with this object as its owner."""
+        slot = ("newmark.lu", id(self))
+        factors = STORE.lookup(slot)  # (an entry of an object gone is forgotten before this)
+        if factors is None or key not in factors:
+            factors = dict(factors or {})
+            factors[key] = _new_lu_cache(self.steps, self.n)
+            STORE.put(slot, factors, owner=self)
+        return factors[key]
+
+    def _lu_factors(self) -> dict[tuple[float, float, float, float], tuple[Any, Any, Any]]:
+        """The LU caches of :meth:`lu_cache` held now, by key (empty when the store has let
+        them go)."""
+        return dict(STORE.lookup(("newmark.lu", id(self)), None, touch=False) or {})
 
 
 _CONTROLLER: Any = None

@@ -78,13 +78,13 @@ it as a function it is given and knows nothing of the beam.
 
 from __future__ import annotations
 
-from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .assembly import Model
+from .cache import memoised
 from .errors import InputError
 from .elements import gauss_points, shape_functions
 from .kinematics import link_angles
@@ -95,7 +95,7 @@ _TRANSVERSE = np.array([1, 2, 3, 5, 6, 7])
 _GAUSS = 10
 
 
-@lru_cache(maxsize=64)
+@memoised
 def _slopes_of(L: float) -> tuple[NDArray, NDArray]:
     x, w = gauss_points(_GAUSS, L)
     g = shape_functions(x, L, derivative=1)

@@ -41,7 +41,6 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass
 from collections.abc import Mapping, Sequence
-from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -49,6 +48,7 @@ import pandas as pd
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
+from .cache import memoised
 from .errors import FivebarError
 from .dynamics import LinkageDynamics
 from .excitation import excitation_frequencies
@@ -202,7 +202,7 @@ def classify(
 
 
 # --- the linkage --------------------------------------------------------------------------------
-@lru_cache(maxsize=32)
+@memoised
 def _modal_data(params: Params, n_modes: int, steps: int, motors: bool) -> tuple[NDArray, NDArray]:
     from .excitation import modal_basis
 

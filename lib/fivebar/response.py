@@ -27,13 +27,13 @@ A Response can also be built from any displacement field of the kept DOFs:
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .cache import memoised
 from .dynamics import LinkageDynamics
 from .elements import shape_functions
 from .errors import ComputationError, InputError, array, number
@@ -207,7 +207,7 @@ class Response:
         return response_plot(self, links, direction, ax, **kwargs)
 
 
-@functools.lru_cache(maxsize=64)
+@memoised
 def _curvature_shapes(length: float, points: int) -> NDArray:
     """Second derivatives of the shape functions at ``points`` points of an element, the
     axial DOFs zeroed (read-only; the same for every result of a mesh)."""

@@ -14,11 +14,12 @@ built from the file's ``[simulation] scheme`` and ``rho_infinity`` (errata E26).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from fractions import Fraction
 
+from .cache import STORE
 from .errors import InputError, InputTypeError, flag, memory, number
 from .newmark import GeneralizedAlpha, Newmark, Scheme
 from .params import Params
@@ -128,7 +129,6 @@ class Setup:
     nonlinear: bool = True
     elements_per_link: tuple[int, int, int, int] | None = None
     scheme: Scheme | None = None
-    _cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         p = self.params
@@ -177,23 +177,27 @@ class Setup:
         return self.params.replace(crank_speed_rpm=self.crank_speed_rpm)
 
     def dynamics(self):
-        """The :class:`~fivebar.dynamics.LinkageDynamics` of this set-up (built once, cached)."""
-        if "dyn" not in self._cache:
-            from .dynamics import LinkageDynamics
+        """The :class:`~fivebar.dynamics.LinkageDynamics` of this set-up, built once and kept in
+        the library's store (:mod:`fivebar.cache`): equal set-ups (the scheme aside, which the
+        dynamics do not depend on) share one."""
+        key = ("setup.dynamics", self.params, self.crank_speed_rpm, self.steps_per_period, self.motors,
+               self.nonlinear, self.elements_per_link)
+        return STORE.get(key, self._build_dynamics)
 
-            n = _estimated_dofs(self.elements_per_link, self.motors)
-            S = self.steps_per_period
-            # the step matrices M, C, K of every step and the step tangent's LU cache
-            memory(4.0 * S * n * n * 8,
-                   f"the step matrices of steps_per_period = {S} steps with about {n} DOFs "
-                   f"(elements_per_link = {self.elements_per_link or (1, 2, 2, 1)})",
-                   "give a smaller steps_per_period or a coarser elements_per_link")
+    def _build_dynamics(self):
+        from .dynamics import LinkageDynamics
 
-            self._cache["dyn"] = LinkageDynamics(
-                self.params, self.crank_speed_rpm, self.steps_per_period, self.motors, self.nonlinear,
-                self.elements_per_link,
-            )
-        return self._cache["dyn"]
+        n = _estimated_dofs(self.elements_per_link, self.motors)
+        S = self.steps_per_period
+        # the step matrices M, C, K of every step and the step tangent's LU cache
+        memory(4.0 * S * n * n * 8,
+               f"the step matrices of steps_per_period = {S} steps with about {n} DOFs "
+               f"(elements_per_link = {self.elements_per_link or (1, 2, 2, 1)})",
+               "give a smaller steps_per_period or a coarser elements_per_link")
+        return LinkageDynamics(
+            self.params, self.crank_speed_rpm, self.steps_per_period, self.motors, self.nonlinear,
+            self.elements_per_link,
+        )
 
 
 def as_setup(setup: Setup | Params, argument: str = "setup", **overrides: Any) -> Setup:

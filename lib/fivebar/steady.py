@@ -47,6 +47,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from .cache import STORE
 from .errors import FivebarError, InputError, array, flag, number
 from .dynamics import LinkageDynamics
 from .eigen import frozen_modes
@@ -608,20 +609,16 @@ def _newton_step(W: NDArray, V: NDArray, D: NDArray):
     return step
 
 
-#: the factorised steps of given monodromy matrices (a remembered one serves several speeds)
-_GIVEN_STEPS: dict = {}
-
-
 def _given_step(Phi: NDArray, W: NDArray, V: NDArray, D: NDArray):
     """:func:`_newton_step` of a given monodromy matrix ``Phi`` (``W = Phi V``), factorised once
-    for the same array and scaling (the 16 most recent kept)."""
-    hit = _GIVEN_STEPS.get(id(Phi))
+    for the same array and scaling (kept in the library's store: a remembered matrix serves
+    several speeds)."""
+    key = ("steady.given_step", id(Phi))  # the entry holds Phi: its id is not reused meanwhile
+    hit = STORE.lookup(key)
     if hit is not None and hit[0] is Phi and np.array_equal(hit[1], D):
         return hit[2]
     solve = _newton_step(W, V, D)
-    _GIVEN_STEPS[id(Phi)] = (Phi, D.copy(), solve)
-    while len(_GIVEN_STEPS) > 16:
-        _GIVEN_STEPS.pop(next(iter(_GIVEN_STEPS)))
+    STORE.put(key, (Phi, D.copy(), solve))
     return solve
 
 
@@ -738,10 +735,12 @@ def steady_state(
     return res
 
 
-#: the last orbits of ``steady_state(..., tol=...)`` per problem but its speed (the set-up at
-#: 1 r/min, method, tol): the speed, the S compared and, at each, the state at t = 0 and the
-#: monodromy matrix; the predictor of the next speed (kept for the few most recent problems)
-_ORBITS: dict = {}
+#: the kind of key, in the library's store, of the last orbits of ``steady_state(..., tol=...)``
+#: per problem but its speed ((kind, the set-up at 1 r/min, tol)): the speed, the S compared
+#: and, at each, the state at t = 0 and the monodromy matrix; the predictor of the next speed
+#: (kept for the :data:`_ORBIT_PROBLEMS` most recent problems)
+_ORBITS = "steady.orbits"
+_ORBIT_PROBLEMS = 4
 #: a remembered orbit predicts the next only within this relative change of the speed
 _PREDICT_RANGE = 0.25
 
@@ -767,11 +766,8 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
     key = None
     memo = None
     if method == "shooting":
-        key = (s.replace(crank_speed_rpm=1.0), tol)
-        try:
-            memo = _ORBITS.get(key)
-        except TypeError:  # an unhashable parameter set: no memory
-            key = None
+        key = (_ORBITS, s.replace(crank_speed_rpm=1.0), tol)
+        memo = STORE.lookup(key, touch=False)  # (an unhashable parameter set: no memory)
     if memo is not None and abs(s.crank_speed_rpm / memo["rpm"] - 1.0) > _PREDICT_RANGE:
         memo = None
     solved: list[SteadyState] = []
@@ -855,9 +851,9 @@ def _predict(memo: dict, S: int, rpm: float) -> NDArray:
 def _remember(key, rpm: float, solved: list[SteadyState], stale: set[int]) -> None:
     """Keep the orbits solved at ``rpm`` (and their monodromy matrices; where none was taken,
     the last speed's stays) as the predictor of the next speed of the same problem, with the
-    S at which a neighbouring speed's matrix proved too stale to serve; the four most recent
-    problems are kept."""
-    old = _ORBITS.pop(key, None)
+    S at which a neighbouring speed's matrix proved too stale to serve; the
+    :data:`_ORBIT_PROBLEMS` most recent problems are kept."""
+    old = STORE.pop(key)
     memo = {"rpm": rpm, "x": {}, "monodromy": {} if old is None else dict(old["monodromy"]), "stale": stale,
             "before": None if old is None else {"rpm": old["rpm"], "x": old["x"]}}
     for r in solved:
@@ -865,9 +861,9 @@ def _remember(key, rpm: float, solved: list[SteadyState], stale: set[int]) -> No
         memo["x"][S] = np.concatenate([r.u[0], r.v[0]])
         if "monodromy" in r._cache:  # else the one of an earlier speed stays (the chord method's guide)
             memo["monodromy"][S] = r._cache["monodromy"]
-    _ORBITS[key] = memo
-    while len(_ORBITS) > 4:
-        _ORBITS.pop(next(iter(_ORBITS)))
+    STORE.put(key, memo)
+    for older in STORE.keys(_ORBITS)[:-_ORBIT_PROBLEMS]:
+        STORE.pop(older)
 
 
 def _deflection_change(coarse: SteadyState, fine: SteadyState) -> float:

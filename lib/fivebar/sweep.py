@@ -21,8 +21,9 @@ default model is linear (``nonlinear=False``): fast, and the resonance positions
 on the amplitude.
 
 Parallel runs: pass any :class:`concurrent.futures.Executor` (``ProcessPoolExecutor``, or a Dask
-cluster's ``client.get_executor()``); ``None`` runs serially.  Results are cached in memory
-(per parameter set, speed and options) for the life of the process.
+cluster's ``client.get_executor()``); ``None`` runs serially.  Results are kept in the
+library's store (:mod:`fivebar.cache`, per parameter set, speed and options; emptied by
+``fivebar.clear_cache()``).
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ from numpy.typing import ArrayLike
 from scipy.signal import find_peaks
 from tqdm import tqdm
 
+from .cache import STORE
 from .errors import FivebarError, number
 from .newmark import Scheme
 from .params import Params
@@ -48,9 +50,10 @@ from .setup import Setup, as_setup
 from .response import quasi_static
 from .steady import DEFLECTION_LIMIT, ValidityWarning, shooting
 
-__all__ = ["SweepError", "SweepInterrupted", "clear_cache", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
+__all__ = ["SweepError", "SweepInterrupted", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
 
-_CACHE: dict[tuple, dict[str, float]] = {}
+#: the kind of key of a sweep point in the library's store: (kind, params, speed, options)
+_POINTS = "sweep.point"
 
 
 class SweepError(FivebarError, ValueError):
@@ -128,11 +131,6 @@ def ignore_sigint() -> None:
     r"""Initializer of a sweep's worker processes: Ctrl-C in a terminal reaches every process
     of the group; the parent stops the workers, so they ignore it (no tracebacks of theirs)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def clear_cache() -> None:
-    r"""Forget every cached sweep point."""
-    _CACHE.clear()
 
 
 def _check_links(links, direction, linkage) -> tuple[tuple[str, ...], str]:
@@ -256,7 +254,7 @@ def speed_sweep(
     progress : bool
         Show a tqdm progress bar (on stderr).
     cache : bool
-        Reuse and store results in the in-memory cache.
+        Reuse and store results in the library's store (:mod:`fivebar.cache`).
     accuracy : bool
         Add the column ``S error estimate`` (each speed solved again at 2 S).
 
@@ -283,12 +281,13 @@ def speed_sweep(
     links, direction = _check_links(links, direction, params.linkage)
     opts = (links, direction, base.steps_per_period, base.scheme, base.nonlinear, base.motors,
             base.elements_per_link, bool(accuracy))
-    key = lambda s: (params, float(s), opts)  # noqa: E731
+    key = lambda s: (_POINTS, params, float(s), opts)  # noqa: E731
     results: dict[float, dict[str, float]] = {}
     todo = []
     for s in dict.fromkeys(x.tolist()):
-        if cache and key(s) in _CACHE:
-            results[s] = _CACHE[key(s)]
+        hit = STORE.lookup(key(s)) if cache else None
+        if hit is not None:
+            results[s] = hit
         else:
             todo.append(s)
     futures: dict = {}
@@ -299,7 +298,7 @@ def speed_sweep(
                 for s in todo:
                     results[s] = sweep_point(params, s, *opts)
                     if cache:
-                        _CACHE[key(s)] = results[s]
+                        STORE.put(key(s), results[s])
                     bar.update()
             else:
                 futures = {executor.submit(sweep_point, params, s, *opts): s for s in todo}
@@ -307,7 +306,7 @@ def speed_sweep(
                     s = futures[fut]
                     results[s] = fut.result()
                     if cache:
-                        _CACHE[key(s)] = results[s]
+                        STORE.put(key(s), results[s])
                     bar.update()
     except KeyboardInterrupt as exc:
         if executor is not None:
@@ -316,7 +315,7 @@ def speed_sweep(
                 if s not in results and fut.done() and not fut.cancelled() and fut.exception() is None:
                     results[s] = fut.result()
                     if cache:
-                        _CACHE[key(s)] = results[s]
+                        STORE.put(key(s), results[s])
         signum = signal.SIGTERM if isinstance(exc, _Terminated) else signal.SIGINT
         done = [results[s] for s in x.tolist() if s in results]
         raise SweepInterrupted(
