@@ -60,7 +60,8 @@ def _set_kernels(on: bool) -> bool:
 def step_costs(repeats: int) -> dict:
     from fivebar import load_params
     from fivebar.dynamics import LinkageDynamics
-    from fivebar.newmark import GeneralizedAlpha, Newmark, integrate
+    from fivebar.newmark import integrate
+    from fivebar.schemes import GeneralizedAlpha, Newmark
     from fivebar.steady import shooting
 
     p = load_params()
@@ -92,7 +93,7 @@ def step_costs(repeats: int) -> dict:
 
 def steady_costs(repeats: int) -> dict:
     from fivebar import load_params, steady_state
-    from fivebar.newmark import GeneralizedAlpha
+    from fivebar.schemes import GeneralizedAlpha
 
     p = load_params()
     out: dict = {}

@@ -17,7 +17,8 @@ from fivebar.control_simulation import CycleSimulation, closed_loop_multipliers,
 from fivebar.free_rotors import DEFAULT_OUTPUTS, FlexibleLinkage, elastic_frequencies, feedforward, rigid_inertia
 from fivebar.elements import motor_element
 from fivebar.kinematics import crank_laws
-from fivebar.newmark import System, integrate
+from fivebar.newmark import integrate
+from fivebar.systems import System
 from fivebar.rigid import inertia_model, inverse_dynamics, mass_matrix
 
 P = load_params()

@@ -8,7 +8,7 @@ import pytest
 import fivebar
 from fivebar import load_params
 from fivebar.dynamics import LinkageDynamics, modal_damping
-from fivebar.newmark import GeneralizedAlpha, Newmark
+from fivebar.schemes import GeneralizedAlpha, Newmark
 from fivebar.steady import SteadyStateError, march, shooting, steady_state
 
 P = load_params()

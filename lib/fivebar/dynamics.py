@@ -51,7 +51,8 @@ from .eigen import frozen_modes
 from .errors import ComputationError, InputError
 from .assembly import Model, build_model
 from .kinematics import crank_laws, rigid_state
-from .newmark import PeriodicStepData, _blas_threads
+from .newmark import _blas_threads
+from .systems import PeriodicStepData
 from .nonlinear import ElementGeometry, NonlinearForce
 from .params import Params
 
@@ -136,7 +137,7 @@ class LinkageDynamics:
 
     ``dyn = LinkageDynamics(params)``; ``dyn.step_data`` feeds
     :func:`fivebar.newmark.integrate`, and ``dyn`` itself is a
-    :class:`fivebar.newmark.SecondOrderSystem` (matrices at any time, nonlinear force).
+    :class:`fivebar.systems.SecondOrderSystem` (matrices at any time, nonlinear force).
 
     Parameters
     ----------
@@ -349,7 +350,7 @@ class LinkageDynamics:
 
     def compiled_nonlinear(self, step_data: PeriodicStepData):
         """The nonlinear force for the compiled time loop (the optional member of
-        :class:`fivebar.newmark.SecondOrderSystem`): ``(force, rdata, idata)`` of
+        :class:`fivebar.systems.SecondOrderSystem`): ``(force, rdata, idata)`` of
         :meth:`fivebar.nonlinear.NonlinearForce.compiled`, sampled at the S step times; None when
         the model is linear or ``step_data`` does not sample this model's period at its step
         times (then the Python loop serves, with ``nonlinear``).

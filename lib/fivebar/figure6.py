@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import FivebarError
-from .newmark import Scheme
+from .schemes import Scheme
 from .params import Params
 from .rigid import motor_torques
 from .setup import PAPER_SCHEME

@@ -37,7 +37,8 @@ from numpy.typing import ArrayLike, NDArray
 from .dynamics import LinkageDynamics
 from .elements import shape_functions
 from .errors import ComputationError, InputError, array, number
-from .newmark import Scheme, integrate
+from .newmark import integrate
+from .schemes import Scheme
 from .params import Params
 from .setup import Setup
 

@@ -42,7 +42,7 @@ from scipy.signal import find_peaks
 from tqdm import tqdm
 
 from .errors import FivebarError, number
-from .newmark import Scheme
+from .schemes import Scheme
 from .params import Params
 from .setup import Setup, as_setup
 from .response import quasi_static
