@@ -101,7 +101,7 @@ def test_five_bar_description_reads_the_paper():
 # --- the four-bar: Freudenstein, finite differences, the drive laws ----------------------------
 def test_four_bar_rocker_against_freudenstein():
     theta = np.linspace(0.0, 2 * np.pi, 181)
-    s = constant_speed_laws(FOUR, theta / FOUR.crank_speed)
+    s = constant_speed_laws(FOUR, theta / FOUR.crank_speed_rad_s)
     a, b, c, d = FOUR.lengths
     open_, crossed = freudenstein_rocker(a, b, c, d, theta)
     err = np.abs(_wrap(s.angle["rocker"] - open_))

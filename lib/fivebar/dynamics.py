@@ -221,7 +221,7 @@ class LinkageDynamics:
         except TypeError:  # an unhashable parameter set: no cache
             return self._sample(t)
         self._key = key
-        W2 = p.crank_speed ** 2
+        W2 = p.crank_speed_rad_s ** 2
 
         def make():
             hit = self._nested(key, t, W2)

@@ -1,4 +1,4 @@
-"""Second-order systems for the time integrator: the protocol, a concrete system, step data.
+r"""Second-order systems for the time integrator: the protocol, a concrete system, step data.
 
 What :func:`fivebar.newmark.integrate` marches is a generic system
 
