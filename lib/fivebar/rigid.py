@@ -234,6 +234,19 @@ def _args(params: Params, args: tuple, per: int, what: str) -> list[NDArray]:
     return _split(params.linkage, args, per, 1, what)[0]
 
 
+def _at_rest(params: Params, theta: tuple, inertia: InertiaModel | None, mode: int) -> _Terms:
+    """The terms at the crank angles ``theta`` (one per crank) with the cranks at rest."""
+    th = _args(params, theta, 1, "crank angles")
+    return _terms(params, th, [np.zeros_like(x) for x in th], inertia, mode)
+
+
+def _moving(params: Params, angles_and_speeds: tuple, inertia: InertiaModel | None, mode: int) -> _Terms:
+    """The terms at the crank angles and speeds (all angles, then all speeds)."""
+    x = _args(params, angles_and_speeds, 2, "crank angles and speeds")
+    n = len(x) // 2
+    return _terms(params, x[:n], x[n:], inertia, mode)
+
+
 def _stack(x: list[NDArray], shape: tuple[int, ...]) -> NDArray:
     """Per-crank arrays stacked to ``shape + (n,)``, broadcast with ``shape``."""
     return np.stack(np.broadcast_arrays(*x, np.empty(shape))[:-1], axis=-1)
@@ -262,8 +275,7 @@ def mass_matrix(params: Params, *theta: ArrayLike, inertia: InertiaModel | None 
     ndarray, shape ``S + (n, n)``
         Symmetric positive definite (kg m^2): T = 1/2 q'^T M q', n the number of cranks.
     """
-    th = _args(params, theta, 1, "crank angles")
-    return _terms(params, th, [np.zeros_like(x) for x in th], inertia, mode).M
+    return _at_rest(params, theta, inertia, mode).M
 
 
 def velocity_terms(params: Params, *angles_and_speeds: ArrayLike, inertia: InertiaModel | None = None,
@@ -286,16 +298,13 @@ def velocity_terms(params: Params, *angles_and_speeds: ArrayLike, inertia: Inert
         Quadratic in the crank speeds: the torques the motors must supply at zero crank
         acceleration (without gravity).
     """
-    x = _args(params, angles_and_speeds, 2, "crank angles and speeds")
-    n = len(x) // 2
-    return _terms(params, x[:n], x[n:], inertia, mode).h
+    return _moving(params, angles_and_speeds, inertia, mode).h
 
 
 def gravity_terms(params: Params, *theta: ArrayLike, inertia: InertiaModel | None = None, mode: int = 1) -> NDArray:
     """Gravity torques dV/dq for gravity ``params.gravity`` along -y (N m), shape ``S + (n,)``;
     arguments as in :func:`mass_matrix`."""
-    th = _args(params, theta, 1, "crank angles")
-    return _terms(params, th, [np.zeros_like(x) for x in th], inertia, mode).g
+    return _at_rest(params, theta, inertia, mode).g
 
 
 def kinetic_energy(params: Params, *angles_and_speeds: ArrayLike, inertia: InertiaModel | None = None,
@@ -305,16 +314,13 @@ def kinetic_energy(params: Params, *angles_and_speeds: ArrayLike, inertia: Inert
     Summed body by body, 1/2 m v_G^2 + 1/2 I_G w^2 + 1/2 J q'^2, not through M.
     Arguments as in :func:`velocity_terms`.
     """
-    x = _args(params, angles_and_speeds, 2, "crank angles and speeds")
-    n = len(x) // 2
-    return _terms(params, x[:n], x[n:], inertia, mode).T
+    return _moving(params, angles_and_speeds, inertia, mode).T
 
 
 def potential_energy(params: Params, *theta: ArrayLike, inertia: InertiaModel | None = None, mode: int = 1) -> NDArray:
     """Gravitational potential energy V = g sum m y_G (J), zero level y = 0, shape ``S``;
     arguments as in :func:`mass_matrix`."""
-    th = _args(params, theta, 1, "crank angles")
-    return _terms(params, th, [np.zeros_like(x) for x in th], inertia, mode).V
+    return _at_rest(params, theta, inertia, mode).V
 
 
 def inverse_dynamics(params: Params, *laws: ArrayLike, inertia: InertiaModel | None = None, mode: int = 1) -> NDArray:
