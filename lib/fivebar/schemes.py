@@ -229,35 +229,30 @@ class GeneralizedAlpha(Scheme):
 
     Parameters
     ----------
-    rho_inf : float
+    rho_infinity : float
         Spectral radius of the one-step map as ``omega dt -> infinity``, in ``[0, 1]``
         (dimensionless); 1 gives no dissipation (the average-acceleration rule's limit),
         0 annihilates the highest modes in one step.
     """
 
-    rho_inf: float = 0.8
+    rho_infinity: float = 0.8  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
-        r = number("rho_inf", self.rho_inf, error=UnstableParametersError)
-        object.__setattr__(self, "rho_inf", r)
+        r = number("rho_infinity", self.rho_infinity, error=UnstableParametersError)
+        object.__setattr__(self, "rho_infinity", r)
         if not 0.0 <= r <= 1.0:
             raise UnstableParametersError(
-                f"generalised-alpha rho_inf={r!r} must lie in [0, 1] (the spectral radius at "
+                f"generalised-alpha rho_infinity={r!r} must lie in [0, 1] (the spectral radius at "
                 "omega dt -> infinity; values above 1 are unstable)"
             )
 
     @property
-    def rho_infinity(self) -> float:
-        """Spectral radius as ``omega dt -> infinity``: ``rho_inf`` by construction."""
-        return float(self.rho_inf)
-
-    @property
     def alpha_m(self) -> float:  # type: ignore[override]
-        return (2.0 * self.rho_inf - 1.0) / (self.rho_inf + 1.0)
+        return (2.0 * self.rho_infinity - 1.0) / (self.rho_infinity + 1.0)
 
     @property
     def alpha_f(self) -> float:  # type: ignore[override]
-        return self.rho_inf / (self.rho_inf + 1.0)
+        return self.rho_infinity / (self.rho_infinity + 1.0)
 
     @property
     def gamma(self) -> float:  # type: ignore[override]

@@ -47,7 +47,7 @@ def scheme_name(scheme: Scheme) -> str:
             return "the paper's average-acceleration rule (Newmark gamma = 1/2, beta = 1/4)"
         return f"Newmark (gamma = {scheme.gamma:g}, beta = {scheme.beta:g})"
     if isinstance(scheme, GeneralizedAlpha):
-        return f"generalised-alpha (rho_inf = {scheme.rho_inf:g})"
+        return f"generalised-alpha (rho_inf = {scheme.rho_infinity:g})"
     return type(scheme).__name__
 
 
