@@ -60,7 +60,8 @@ def _set_kernels(on: bool) -> bool:
 def step_costs(repeats: int) -> dict:
     from fivebar import load_params
     from fivebar.dynamics import LinkageDynamics
-    from fivebar.newmark import GeneralizedAlpha, Newmark, integrate
+    from fivebar.newmark import integrate
+    from fivebar.schemes import GeneralizedAlpha, Newmark
     from fivebar.steady import shooting
 
     p = load_params()
@@ -92,7 +93,7 @@ def step_costs(repeats: int) -> dict:
 
 def steady_costs(repeats: int) -> dict:
     from fivebar import load_params, steady_state
-    from fivebar.newmark import GeneralizedAlpha
+    from fivebar.schemes import GeneralizedAlpha
 
     p = load_params()
     out: dict = {}
@@ -133,7 +134,8 @@ _FIRST_CALL = r"""
 import time, json
 from fivebar import load_params
 from fivebar.dynamics import LinkageDynamics
-from fivebar.newmark import GeneralizedAlpha, integrate
+from fivebar.newmark import integrate
+from fivebar.schemes import GeneralizedAlpha
 import numpy as np
 dyn = LinkageDynamics(load_params())
 u0 = np.zeros(dyn.n)

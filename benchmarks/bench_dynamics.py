@@ -53,7 +53,8 @@ from threadpoolctl import threadpool_limits
 from fivebar import Setup, load_params
 from fivebar.setup import scheme_name
 from fivebar.dynamics import LinkageDynamics
-from fivebar.newmark import GeneralizedAlpha, Newmark, integrate
+from fivebar.newmark import integrate
+from fivebar.schemes import GeneralizedAlpha, Newmark
 from fivebar.steady import SteadyState, march, shooting, steady_state
 
 LINKS = ("L2", "L3")

@@ -41,7 +41,9 @@ def main() -> None:
 
     import numpy as np
 
-    from fivebar.newmark import Newmark, PeriodicStepData, System, integrate
+    from fivebar.newmark import integrate
+    from fivebar.schemes import Newmark
+    from fivebar.systems import PeriodicStepData, System
 
     n, S, P, R = args.n, args.steps_per_period, args.periods, max(args.repeats, 5)
     rng = np.random.default_rng(0)

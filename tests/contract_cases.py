@@ -30,7 +30,8 @@ sys.path.insert(0, str(ROOT / "lib"))
 
 import fivebar as fb  # noqa: E402
 from fivebar import datasets  # noqa: E402
-from fivebar.newmark import PeriodicStepData, System, integrate  # noqa: E402
+from fivebar.newmark import integrate  # noqa: E402
+from fivebar.systems import PeriodicStepData, System  # noqa: E402
 from fivebar.steady import march, shooting  # noqa: E402
 from fivebar.sweep import speed_sweep, sweep_point  # noqa: E402
 

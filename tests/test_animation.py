@@ -53,7 +53,7 @@ def test_default_scale_makes_the_deflection_visible_but_not_huge(steady, params)
 def test_mode_frames_frequencies_and_normalisation(params):
     fr = animation.mode_frames(params, n_modes=2, frames=6)
     for i in (0, 4):
-        th1, _, _, th4, _, _ = crank_laws(params, np.radians(fr.crank_angle_deg[i]) / params.crank_speed)
+        th1, _, _, th4, _, _ = crank_laws(params, np.radians(fr.crank_angle_deg[i]) / params.crank_speed_rad_s)
         np.testing.assert_allclose(fr.frequencies[i], fivebar.natural_frequencies(params, float(th1), float(th4), n_modes=2),
                                    rtol=1e-10)
     for shape in fr.shapes_mm:

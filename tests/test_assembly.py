@@ -69,7 +69,7 @@ def test_tied_mechanism_mode_is_resisted_by_the_shaft_torsion_only():
     """Turning crank AB rigidly by d theta twists motor 1's shaft at the coupling end; with
     U3 free, the shaft acts as the series spring G Jp / (l2 + l3)."""
     m = build_model(P)
-    mot = P.motor1
+    mot = P.motors["motor1"]
     GJ = mot.shaft_G * np.pi * mot.shaft_diameter**4 / 32
     for th1, th4 in ANGLES:
         _, K = m.matrices(th1, th4)

@@ -28,7 +28,7 @@ from fivebar.continuation import ContinuationError, continuation, settle, switch
 from fivebar.errors import FivebarError
 from fivebar.modal_equations import ModalSystem
 from fivebar.response_curves import backbone
-from fivebar.newmark import System
+from fivebar.systems import System
 from fivebar.periodic import PeriodicProblem, iterate_map, newmark_map, shoot
 
 

@@ -17,7 +17,8 @@ from fivebar.control_simulation import CycleSimulation, closed_loop_multipliers,
 from fivebar.free_rotors import DEFAULT_OUTPUTS, FlexibleLinkage, elastic_frequencies, feedforward, rigid_inertia
 from fivebar.elements import motor_element
 from fivebar.kinematics import crank_laws
-from fivebar.newmark import System, integrate
+from fivebar.newmark import integrate
+from fivebar.systems import System
 from fivebar.rigid import inertia_model, inverse_dynamics, mass_matrix
 
 P = load_params()
@@ -58,7 +59,7 @@ def test_clamped_rotors_give_the_prescribed_motion_frequencies(th):
     """J0 -> infinity holds the rotors: the elastic frequencies tend to natural_frequencies
     with motors=True (less the rotors' whirl modes, which do not couple to the linkage)."""
     f_big = control_modal_model(P, *th, n_modes=8, rotor_inertia_scale=1e9).frequencies
-    whirl = [np.sqrt(K[0, 0] / M[0, 0]) / (2 * np.pi) for M, K in (motor_element(P.motor1), motor_element(P.motor2))]
+    whirl = [np.sqrt(K[0, 0] / M[0, 0]) / (2 * np.pi) for M, K in (motor_element(P.motors["motor1"]), motor_element(P.motors["motor2"]))]
     f_tied = natural_frequencies(P, *th, n_modes=14)
     linkage = np.array([f for f in f_tied if min(abs(f / w - 1) for w in whirl) > 1e-9])
     assert np.allclose(f_big, linkage[:8], rtol=1e-7)

@@ -43,7 +43,7 @@ def test_frequencies_equal_natural_frequencies_at_two_angles(written, params):
     _, df = datasets.read_dataset(written[0] / "natural_frequencies.csv")
     for deg in (0.0, 137.0):
         row = df[df["crank angle AB (deg)"] == deg].iloc[0]
-        th1, _, _, th4, _, _ = crank_laws(params, np.radians(deg) / params.crank_speed)
+        th1, _, _, th4, _, _ = crank_laws(params, np.radians(deg) / params.crank_speed_rad_s)
         f = fivebar.natural_frequencies(params, float(th1), float(th4), n_modes=6)
         np.testing.assert_allclose(row[[f"f{k} (Hz)" for k in range(1, 7)]].to_numpy(float), f, rtol=1e-8)
         assert row["theta1 (deg)"] == pytest.approx(np.degrees(th1))

@@ -9,7 +9,7 @@ import fivebar
 from fivebar import clear_cache, load_params
 from fivebar.cache import STORE
 from fivebar.dynamics import LinkageDynamics, modal_damping
-from fivebar.newmark import GeneralizedAlpha, Newmark
+from fivebar.schemes import GeneralizedAlpha, Newmark
 from fivebar.steady import SteadyStateError, march, shooting, steady_state
 
 P = load_params()

@@ -19,7 +19,7 @@ MU0 = 4e-7 * math.pi
 
 
 def _motor(params, i):
-    return params.motor1 if i == 1 else params.motor2
+    return params.motors["motor1"] if i == 1 else params.motors["motor2"]
 
 
 def _F(params, motor, field, alpha, t):
@@ -53,7 +53,7 @@ def _coenergy(params, motor, field, x, y, t, n=4096):
 
 # --- speeds (2.1) ----------------------------------------------------------------------------
 def test_speeds_from_supply_and_slip():
-    m1, m2 = PARAMS.motor1, PARAMS.motor2
+    m1, m2 = PARAMS.motors["motor1"], PARAMS.motors["motor2"]
     assert PARAMS.supply_frequency == 50.0
     # 50 Hz: 3000 r/min for one pole pair, 1500 r/min for two
     assert em.synchronous_speed(m1, PARAMS) * 30 / math.pi == pytest.approx(3000.0)
@@ -86,14 +86,14 @@ def test_literal_mmf_against_the_printed_data(i):
 
 
 def test_literal_mmf_numbers_by_hand():
-    F = em.mmf_components(PARAMS.motor1, "literal")
+    F = em.mmf_components(PARAMS.motors["motor1"], "literal")
     # 0.9 * 924 * 0.92 * 3.58 / 1 = 2738.96 A; a_e = 26/220
     assert F["F_+s"] == pytest.approx(0.5 * (1 + 26 / 220) * 2738.95776)
     ratio = 594.35 / math.hypot(27.24 / 1.9287, 0.0196)
     assert F["F_-r"] == pytest.approx(0.5 * ratio * (1 - 26 / 220) * 2738.95776)
     # the nominal flux density mu0 F_m / (k_mu delta0): about 11 T (errata E9)
     B = MU0 * 2738.95776 / (1.2 * 0.25e-3)
-    assert em.magnetizing_mmf(PARAMS.motor1) == pytest.approx(2738.95776)
+    assert em.magnetizing_mmf(PARAMS.motors["motor1"]) == pytest.approx(2738.95776)
     assert 11.0 < B < 12.0
 
 
@@ -115,7 +115,7 @@ def test_calibrated_mmf_is_scaled_to_the_flux_density(i):
 
 
 def test_mmf_wave_is_one_sinusoid_of_amplitude_C():
-    m = PARAMS.motor2
+    m = PARAMS.motors["motor2"]
     q = PARAMS.replace(phase_phi10=0.4, phase_phi20=1.1)
     P, N = em.mmf_phasors(m, q, "literal")
     t = np.array([0.0013, 0.0071, 0.0150])
@@ -195,7 +195,7 @@ def test_stiffness_is_minus_the_hessian_of_the_coenergy(i):
 
 def test_exact_pull_equals_gradient_of_coenergy_and_tends_to_linear():
     q = PARAMS
-    m = q.motor1
+    m = q.motors["motor1"]
     sigma = m.k_mu * m.delta0
     t = 0.0042
     x, y = 0.3 * sigma, -0.2 * sigma
@@ -223,7 +223,7 @@ def _stator_only(params, i, U_k):
 
 def test_single_wave_p2_is_the_classical_isotropic_pull():
     q = _stator_only(PARAMS, 2, 220.0)  # a_e = 1: only F_+s
-    m = q.motor2
+    m = q.motors["motor2"]
     F = em.mmf_components(m, "calibrated", q.gap_flux_density)
     assert F["F_-s"] == 0 and F["F_+r"] < 1e-12 * F["F_+s"]
     sigma = m.k_mu * m.delta0
@@ -236,7 +236,7 @@ def test_single_wave_p2_is_the_classical_isotropic_pull():
 
 def test_single_wave_p1_has_a_rotating_anisotropy():
     q = _stator_only(PARAMS, 1, 220.0)
-    m = q.motor1
+    m = q.motors["motor1"]
     sigma = m.k_mu * m.delta0
     F = em.mmf_components(m, "literal")["F_+s"]
     c = m.R01 * m.L01 * MU0 * F**2 / (2 * sigma**3)
@@ -254,7 +254,7 @@ def test_single_wave_p1_has_a_rotating_anisotropy():
 
 def test_elliptic_field_ripple_p2():
     q = _stator_only(PARAMS, 2, 60.0)  # a_e = 60/220: F_+ and F_- of the stator only
-    m = q.motor2
+    m = q.motors["motor2"]
     sigma = m.k_mu * m.delta0
     F = em.mmf_components(m, "literal")
     Fp, Fn = F["F_+s"], F["F_-s"]
@@ -287,7 +287,7 @@ def test_stiffness_harmonics_are_exact(i):
 
 
 def test_default_variant_comes_from_params():
-    m = PARAMS.motor1
+    m = PARAMS.motors["motor1"]
     K_cal = em.electromagnetic_stiffness(m, PARAMS, 0.003)
     assert np.array_equal(K_cal, em.electromagnetic_stiffness(m, PARAMS, 0.003, "calibrated"))
     lit = PARAMS.replace(em_variant="literal")
@@ -298,7 +298,7 @@ def test_default_variant_comes_from_params():
 
 # --- eccentricity (2.7) ----------------------------------------------------------------------
 def test_eccentricity_vector():
-    m = PARAMS.motor1
+    m = PARAMS.motors["motor1"]
     t = np.array([0.0, 0.0031])
     e = em.eccentricity_vector(m, PARAMS, t)
     a = PARAMS.static_eccentricity_angle
@@ -340,8 +340,8 @@ def test_literal_field_makes_the_rotor_unstable_calibrated_does_not(i):
 # --- spectrum --------------------------------------------------------------------------------
 def test_field_frequencies():
     w = 2 * math.pi * 50
-    f1 = em.field_frequencies(PARAMS.motor1, PARAMS)
-    f2 = em.field_frequencies(PARAMS.motor2, PARAMS)
+    f1 = em.field_frequencies(PARAMS.motors["motor1"], PARAMS)
+    f2 = em.field_frequencies(PARAMS.motors["motor2"], PARAMS)
     assert f1["electrical"] == f2["electrical"] == pytest.approx(w)
     assert f2["field"] == pytest.approx(w / 2)
     O = (1 - 0.15) * w / 2
@@ -351,14 +351,14 @@ def test_field_frequencies():
     assert f2["pull"] == pytest.approx((0.0, O, 2 * w - O, 2 * w, 2 * w + O))
     # a single rotating wave with p = 2 has no ripple: only the rotor frequency remains
     q = _stator_only(PARAMS, 2, 220.0)
-    assert em.field_frequencies(q.motor2, q)["stiffness"] == (0.0,)
-    assert em.field_frequencies(q.motor2, q)["pull"] == pytest.approx((0.0, O))
+    assert em.field_frequencies(q.motors["motor2"], q)["stiffness"] == (0.0,)
+    assert em.field_frequencies(q.motors["motor2"], q)["pull"] == pytest.approx((0.0, O))
     assert f1["stiffness"] == pytest.approx((0.0, 2 * w))
 
 
 # --- bad input -------------------------------------------------------------------------------
 def test_bad_input_is_named():
-    m = PARAMS.motor1
+    m = PARAMS.motors["motor1"]
     with pytest.raises(em.ElectromagneticsError, match="variant = 'fancy'"):
         em.electromagnetic_stiffness(m, PARAMS, 0.0, "fancy")
     with pytest.raises(ValueError, match="form = 'positive'"):
@@ -374,7 +374,7 @@ def test_bad_input_is_named():
     with pytest.raises(ValueError, match="variant = 'printed'"):
         em.mmf_components(m, "printed")
     with pytest.raises(ValueError, match="a_e"):
-        em.mmf_components(PARAMS.replace(**{"motor1.U_k": 300.0}).motor1, "literal")
+        em.mmf_components(PARAMS.replace(**{"motor1.U_k": 300.0}).motors["motor1"], "literal")
     with pytest.raises(ValueError, match="touch the stator"):
         em.unbalanced_magnetic_pull(m, PARAMS, m.e0, 0.0, 0.0)
     with pytest.raises(ValueError, match="n_alpha"):

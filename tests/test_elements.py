@@ -330,7 +330,7 @@ def test_axial_rod_modes():
 
 
 # --- motor element ---------------------------------------------------------------------------
-MOTORS = [PARAMS.motor1, PARAMS.motor2]
+MOTORS = [PARAMS.motors["motor1"], PARAMS.motors["motor2"]]
 
 
 def bump_integrals():
@@ -415,7 +415,7 @@ def test_motor_stiffness_closed_form(motor):
 
 
 def test_motor_input_errors():
-    motor = PARAMS.motor1
+    motor = PARAMS.motors["motor1"]
     with pytest.raises(ValueError, match=r"motor\.l2 = 0"):
         motor_element(dataclasses.replace(motor, l2=0.0))
     with pytest.raises(ValueError, match=r"motor\.shaft_G = -1"):

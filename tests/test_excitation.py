@@ -86,7 +86,7 @@ def test_load_series_reconstructs_the_model_force_between_steps(dyn, params):
     """(2.10) with m = params.fourier_terms against the load evaluated directly off the grid."""
     fs = load_expansion(dyn)
     assert fs.m == params.fourier_terms
-    assert fs.frequency == pytest.approx(params.replace(crank_speed_rpm=120.0).crank_speed)
+    assert fs.frequency == pytest.approx(params.replace(crank_speed_rpm=120.0).crank_speed_rad_s)
     t = (np.arange(13) + 0.37) * dyn.period / 13
     F = np.array([dyn.force(x) for x in t])
     err = np.abs(fs(t) - F).max() / np.abs(F).max()
@@ -114,8 +114,8 @@ def test_excitation_frequencies_equal_speeds(params):
     assert df.loc["nu1", "frequency (Hz)"] == pytest.approx(1.5)
     assert list(df.index[df["drives linkage"]]) == ["nu1", "nu2", "nu3"]
     # crank-tied supply: the field turns at the rotor speed / (1 - s)
-    assert df.loc["nu6", "frequency (rad/s)"] == pytest.approx(W / (1 - params.motor1.s))
-    assert df.loc["nu7", "frequency (rad/s)"] == pytest.approx(W / (1 - params.motor2.s))
+    assert df.loc["nu6", "frequency (rad/s)"] == pytest.approx(W / (1 - params.motors["motor1"].s))
+    assert df.loc["nu7", "frequency (rad/s)"] == pytest.approx(W / (1 - params.motors["motor2"].s))
 
 
 def test_nu3_is_the_greatest_common_divisor(params):
@@ -128,9 +128,9 @@ def test_nu3_is_the_greatest_common_divisor(params):
 def test_mains_supply_field_frequencies(params):
     df = excitation_frequencies(params, supply="mains")
     f = params.supply_frequency
-    assert df.loc["nu6", "frequency (Hz)"] == pytest.approx(f / params.motor1.p)
-    assert df.loc["nu7", "frequency (Hz)"] == pytest.approx(f / params.motor2.p)
-    assert df.loc["nu1", "frequency (Hz)"] == pytest.approx((1 - params.motor1.s) * f / params.motor1.p)
+    assert df.loc["nu6", "frequency (Hz)"] == pytest.approx(f / params.motors["motor1"].p)
+    assert df.loc["nu7", "frequency (Hz)"] == pytest.approx(f / params.motors["motor2"].p)
+    assert df.loc["nu1", "frequency (Hz)"] == pytest.approx((1 - params.motors["motor1"].s) * f / params.motors["motor1"].p)
     assert math.isnan(df.loc["nu8", "frequency (rad/s)"])
     with pytest.raises(ExcitationError):
         excitation_frequencies(params, supply="grid")

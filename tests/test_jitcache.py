@@ -157,7 +157,8 @@ KERNELS = textwrap.dedent("""
     import numpy as np
     sys.path.insert(0, sys.argv[1])
     warnings.simplefilter("always")
-    from fivebar.newmark import System, integrate
+    from fivebar.newmark import integrate
+    from fivebar.systems import System
     import fivebar.newmark as nm
     # u'' + u = 0 from u = 1: u(t) = cos t (average acceleration: the phase error is O(dt^2))
     with warnings.catch_warnings(record=True) as w:

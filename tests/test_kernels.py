@@ -21,7 +21,9 @@ from fivebar import _kernels as kern
 from fivebar.dynamics import LinkageDynamics
 from fivebar.nonlinear import STRAIN_MEASURES, NonlinearForce
 from fivebar.steady import shooting
-from fivebar.newmark import GeneralizedAlpha, HHT, Newmark, NewtonConvergenceError, System, integrate
+from fivebar.newmark import NewtonConvergenceError, integrate
+from fivebar.schemes import HHT, GeneralizedAlpha, Newmark
+from fivebar.systems import PeriodicStepData, System
 
 
 @pytest.fixture(scope="module")
@@ -257,7 +259,7 @@ def test_python_loop_serves_where_the_kernels_cannot(dyn, monkeypatch):
         return real(*a, **k)
 
     monkeypatch.setattr(nm, "_march_python", spy)
-    other = nm.PeriodicStepData(dyn.step_data.M[::5], dyn.step_data.C[::5], dyn.step_data.K[::5],
+    other = PeriodicStepData(dyn.step_data.M[::5], dyn.step_data.C[::5], dyn.step_data.K[::5],
                                 dyn.step_data.F[::5], t0=0.0, period=dyn.period)
     assert dyn.compiled_nonlinear(other) is None
     integrate(dyn, np.zeros(dyn.n), np.zeros(dyn.n), 0.0, other.dt, 3, step_data=other)
@@ -328,7 +330,7 @@ def test_a_users_compiled_force_drives_the_compiled_loop(scheme, newton, monkeyp
     round-off, with the sensitivity; a broken compiled force (twice the force) is caught."""
     sysm = _CubicSprings(np.array([4.0, 1.0, 9.0]), lambda t: np.sin(2 * t) * np.array([1.0, 0.5, -0.3]))
     S = 60
-    sd = nm.PeriodicStepData.from_system(sysm, 0.0, np.pi, S)
+    sd = PeriodicStepData.from_system(sysm, 0.0, np.pi, S)
     u0, v0 = np.array([0.3, -0.2, 0.1]), np.zeros(3)
     sens = "uv" if scheme.is_newmark else "uva"
     kw = dict(step_data=sd, newton=newton, sensitivity=sens, max_iter=50)
@@ -373,6 +375,7 @@ def test_a_fresh_process_loads_the_compiled_loop_from_the_cache(tmp_path):
             shutil.copy(f, target)
     code = ("import json, numpy as np\n"
             "import fivebar.newmark as nm\n"
+            "from fivebar.systems import System\n"
             "from fivebar import load_params\n"
             "from fivebar.dynamics import LinkageDynamics\n"
             "from fivebar._jitcache import import_cached\n"
@@ -380,7 +383,7 @@ def test_a_fresh_process_loads_the_compiled_loop_from_the_cache(tmp_path):
             "    d = LinkageDynamics(load_params(), steps_per_period=100, nonlinear=nonlinear)\n"
             "    nm.integrate(d, np.zeros(d.n), np.zeros(d.n), 0.0, d.dt, 3, step_data=d.step_data,\n"
             "                 sensitivity=True)\n"
-            "cubic = nm.System(np.eye(2), np.eye(2), np.eye(2), nonlinear=lambda u: (u**3, np.diag(3 * u**2)))\n"
+            "cubic = System(np.eye(2), np.eye(2), np.eye(2), nonlinear=lambda u: (u**3, np.diag(3 * u**2)))\n"
             "nm.integrate(cubic, [0.1, 0.0], [0.0, 0.0], 0.0, 0.1, 3)  # the Python loop\n"
             "k, f = nm._kernels(), import_cached('fivebar._nonlinear_kernel')\n"
             "out = {}\n"

@@ -91,5 +91,5 @@ def test_constant_speed_laws_and_link_angles():
         assert np.allclose(np.angle(np.exp(1j * (ang[k] - s.angle[k]))), 0, atol=1e-12)
     # one period later the linkage is back where it started
     assert np.allclose(s.pos["C"][0], s.pos["C"][-1], atol=1e-12)
-    with pytest.raises(ValueError, match="crank_speed = -1"):
-        crank_laws(P, t, crank_speed=-1)
+    with pytest.raises(ValueError, match="crank_speed_rad_s = -1"):
+        crank_laws(P, t, crank_speed_rad_s=-1)

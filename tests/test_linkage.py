@@ -101,7 +101,7 @@ def test_five_bar_description_reads_the_paper():
 # --- the four-bar: Freudenstein, finite differences, the drive laws ----------------------------
 def test_four_bar_rocker_against_freudenstein():
     theta = np.linspace(0.0, 2 * np.pi, 181)
-    s = constant_speed_laws(FOUR, theta / FOUR.crank_speed)
+    s = constant_speed_laws(FOUR, theta / FOUR.crank_speed_rad_s)
     a, b, c, d = FOUR.lengths
     open_, crossed = freudenstein_rocker(a, b, c, d, theta)
     err = np.abs(_wrap(s.angle["rocker"] - open_))
@@ -233,3 +233,18 @@ def test_four_bar_steady_response_against_the_multibody_model():
             y_mb, y = mb.midpoint_mm(link, d), ked.midpoint_mm(link, d)[::4]
             assert np.ptp(y) > 0.02  # mm: a response well above round-off
             assert np.abs(y_mb - y).max() < 0.01 * np.ptp(y), (link, d)
+
+
+def test_five_bar_only_analyses_refuse_the_four_bar_by_name():
+    """The free-rotor control model and the nu1..nu8 table are of two motor-driven cranks:
+    a four-bar (one crank, no motor) gets an error that says so, not a silent second crank."""
+    from fivebar.errors import FivebarError
+    from fivebar.excitation import excitation_frequencies
+    from fivebar.free_rotors import FlexibleLinkage, elastic_frequencies, rigid_inertia
+
+    for call in (lambda: FlexibleLinkage(FOUR), lambda: elastic_frequencies(FOUR, [0.0]),
+                 lambda: excitation_frequencies(FOUR)):
+        with pytest.raises(FivebarError, match="two motor-driven cranks.*'four-bar crank-rocker' has 1 driven crank"):
+            call()
+    assert rigid_inertia(FOUR).rotors == {}  # the rigid inertia serves any description
+    assert FOUR.crank_motors == {} and list(FOUR.motors) == ["motor1", "motor2"]  # the layered file's sections

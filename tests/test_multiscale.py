@@ -311,23 +311,25 @@ def test_primary_resonance_against_numerical_steady_state():
 
 def test_primary_resonance_against_newmark():
     """The same steady state by the project's Newmark integrator (shooting with its monodromy)."""
-    nm = pytest.importorskip("fivebar.newmark")
+    from fivebar.newmark import integrate
+    from fivebar.systems import System
+
     eps, w, mu, al, k, sig, S = 0.1, 1.0, 0.25, 1.0, 1.0, 1.0, 500
     Om = w + eps * sig
     T = 2 * np.pi / Om
-    system = nm.System(
+    system = System(
         [[1.0]], [[2 * eps * mu]], [[w**2]], force=lambda t: [eps * k * np.cos(Om * t)],
         nonlinear=lambda u: (eps * al * u**3, np.array([[3 * eps * al * u[0] ** 2]])),
     )
     for b in primary_resonance(duffing(eps, w, mu, al), 0, Harmonic(Om, [eps * k])):
         y = np.array([b.eta(0.0)[0], b.eta_dot(0.0)[0]])
         for _ in range(20):
-            res = nm.integrate(system, y[:1], y[1:], 0.0, T / S, S, sensitivity="uv", store="last")
+            res = integrate(system, y[:1], y[1:], 0.0, T / S, S, sensitivity="uv", store="last")
             dy = np.linalg.solve(res.monodromy - np.eye(2), y - [res.u[-1, 0], res.v[-1, 0]])
             y = y + dy
             if np.max(np.abs(dy)) < 1e-9:
                 break
-        res = nm.integrate(system, y[:1], y[1:], 0.0, T / S, S, sensitivity="uv")
+        res = integrate(system, y[:1], y[1:], 0.0, T / S, S, sensitivity="uv")
         assert (np.max(np.abs(np.linalg.eigvals(res.monodromy))) < 1) == b.stable
         rel = abs(np.max(np.abs(res.u[:, 0])) - b.amplitude[0]) / b.amplitude[0]
         assert rel < eps

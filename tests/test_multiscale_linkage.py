@@ -16,7 +16,7 @@ from fivebar.linkage_multiscale import (
     multiple_scales_newmark,
 )
 from fivebar.modal_equations import MultiscaleError
-from fivebar.newmark import GeneralizedAlpha
+from fivebar.schemes import GeneralizedAlpha
 from fivebar.response import Response
 from fivebar.steady import shooting
 

@@ -12,19 +12,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from fivebar import load_params
-from fivebar.newmark import (
-    HHT,
-    GeneralizedAlpha,
-    Newmark,
-    NewtonConvergenceError,
-    PeriodicStepData,
-    System,
-    UnstableParametersError,
-    UnstableParametersWarning,
-    amplification_matrix,
-    consistent_acceleration,
-    integrate,
-)
+from fivebar.schemes import HHT, GeneralizedAlpha, Newmark, UnstableParametersError, UnstableParametersWarning, amplification_matrix
+from fivebar.systems import PeriodicStepData, System, consistent_acceleration
+from fivebar.newmark import NewtonConvergenceError, integrate
 
 SCHEMES = [Newmark(), HHT(-0.1), HHT(-1 / 3), GeneralizedAlpha(0.8), GeneralizedAlpha(0.0)]
 IDS = ["newmark", "hht-0.1", "hht-1/3", "ga-0.8", "ga-0.0"]

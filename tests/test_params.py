@@ -15,10 +15,10 @@ def test_paper_values_in_si():
     assert p.lengths == (0.2, 0.4, 0.4, 0.15, 0.4)
     assert p.A == pytest.approx(30e-3 * 2e-3)
     assert p.I == pytest.approx(2e-3 * 30e-3**3 / 12)  # 30 mm side in the plane (assumption)
-    assert p.motor1.l == pytest.approx(0.363)  # l1 + l2 + l3 as printed in total
-    assert p.motor2.l == pytest.approx(0.308)  # 100 + 33 + 175 mm (the paper prints l = 208)
-    assert p.motor1.rated_speed == pytest.approx(1500 * 2 * math.pi / 60)
-    assert p.crank_speed == pytest.approx(p.crank_speed_rpm * math.pi / 30)
+    assert p.motors["motor1"].l == pytest.approx(0.363)  # l1 + l2 + l3 as printed in total
+    assert p.motors["motor2"].l == pytest.approx(0.308)  # 100 + 33 + 175 mm (the paper prints l = 208)
+    assert p.motors["motor1"].rated_speed == pytest.approx(1500 * 2 * math.pi / 60)
+    assert p.crank_speed_rad_s == pytest.approx(p.crank_speed_rpm * math.pi / 30)
     assert p.period == pytest.approx(60 / p.crank_speed_rpm)
     assert p.meta["geometry.L1"]["printed"] == "200 mm"
     assert "reason" in p.meta["assumptions.damping_ratio"]
@@ -44,7 +44,7 @@ def test_params_are_frozen():
 def test_replace_and_layered_file(tmp_path: Path):
     p = load_params()
     q = p.replace(crank_speed_rpm=120, **{"motor1.m0": 3.0})
-    assert q.crank_speed_rpm == 120 and q.motor1.m0 == 3.0 and p.crank_speed_rpm != 120
+    assert q.crank_speed_rpm == 120 and q.motors["motor1"].m0 == 3.0 and p.crank_speed_rpm != 120
     overlay = tmp_path / "mine.toml"
     overlay.write_text("[geometry]\nL1 = 0.25\n[assumptions]\nbending_depth = 0.002\n")
     r = load_params([fivebar.DEFAULT_PARAMS_PATH, overlay])

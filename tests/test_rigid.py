@@ -29,7 +29,7 @@ def _energy_by_hand(params, th1, w1, th4, w4):
     z = np.zeros_like(np.asarray(th1, float))
     s = rigid_state(params, th1, w1, z, th4, w4, z)
     lengths = dict(zip(LINKS, params.lengths[:4]))
-    T = 0.5 * (params.motor1.J0 * w1**2 + params.motor2.J0 * w4**2)
+    T = 0.5 * (params.motors["motor1"].J0 * w1**2 + params.motors["motor2"].J0 * w4**2)
     V = 0.0
     for k, L in lengths.items():
         m = params.rho * params.width * params.thickness * L
@@ -56,7 +56,7 @@ def test_mass_matrix_symmetric_positive_definite():
     assert np.allclose(M, np.swapaxes(M, -1, -2), rtol=0, atol=1e-15)
     assert np.all(np.linalg.eigvalsh(M) > 0)
     # without the rotors it stays positive definite: the links alone carry inertia in both q
-    M0 = mass_matrix(P, *GRID, inertia=inertia_model(P).replace(J1=0.0, J2=0.0))
+    M0 = mass_matrix(P, *GRID, inertia=inertia_model(P).replace(rotors={}))
     assert np.all(np.linalg.eigvalsh(M0) > 0)
 
 
@@ -69,7 +69,7 @@ def test_kinetic_energy_against_positions_by_finite_differences():
     Xp = positions(P, q[:, 0] + h * qd[:, 0], q[:, 1] + h * qd[:, 1])
     Xm = positions(P, q[:, 0] - h * qd[:, 0], q[:, 1] - h * qd[:, 1])
     rhoA = P.rho * P.width * P.thickness
-    T = 0.5 * (P.motor1.J0 * qd[:, 0] ** 2 + P.motor2.J0 * qd[:, 1] ** 2)
+    T = 0.5 * (P.motors["motor1"].J0 * qd[:, 0] ** 2 + P.motors["motor2"].J0 * qd[:, 1] ** 2)
     for k, (a, b) in LINKS.items():
         vp = (Xp[a] + Xp[b] - Xm[a] - Xm[b]) / (4 * h)  # velocity of the link midpoint
         dp, dm = Xp[b] - Xp[a], Xm[b] - Xm[a]
@@ -124,7 +124,7 @@ def test_velocity_terms_against_christoffel_symbols():
 def test_power_balance(params, laws):
     """tau . q' = d(T + V)/dt along a motion, T and V summed by hand, d/dt by differences."""
     if laws == "nominal":
-        W = params.crank_speed
+        W = params.crank_speed_rad_s
 
         def law(t):
             return crank_laws(params, t, W)
@@ -175,12 +175,13 @@ def test_closed_form_massless_couplers():
     """
     base = inertia_model(PG)
     model = base.replace(
-        link_mass={**base.link_mass, "L2": 0.0, "L3": 0.0}, link_inertia={**base.link_inertia, "L2": 0.0, "L3": 0.0}, m02=0.0
+        link_mass={**base.link_mass, "L2": 0.0, "L3": 0.0}, link_inertia={**base.link_inertia, "L2": 0.0, "L3": 0.0},
+        masses={"B": PG.m01}
     )
     th1, th4 = GRID
     m1, m4 = base.link_mass["L1"], base.link_mass["L4"]
     M = mass_matrix(PG, th1, th4, inertia=model)
-    M_ref = np.diag([base.J1 + m1 * PG.L1**2 / 3 + PG.m01 * PG.L1**2, base.J2 + m4 * PG.L4**2 / 3])
+    M_ref = np.diag([base.rotors["A"] + m1 * PG.L1**2 / 3 + PG.m01 * PG.L1**2, base.rotors["E"] + m4 * PG.L4**2 / 3])
     assert np.allclose(M, M_ref, rtol=1e-13, atol=1e-16)
     assert np.allclose(velocity_terms(PG, th1, th4, 3.0, -7.0, inertia=model), 0, atol=1e-13)
     g_ref = np.stack([9.81 * np.cos(th1) * (m1 * PG.L1 / 2 + PG.m01 * PG.L1), 9.81 * np.cos(th4) * m4 * PG.L4 / 2], -1)
@@ -190,7 +191,7 @@ def test_closed_form_massless_couplers():
 def test_closed_form_point_mass_at_C():
     """Only m02 at C: M = m02 J_C^T J_C with J_C = dC/dq from differences of positions()."""
     zero = {k: 0.0 for k in LINKS}
-    model = InertiaModel(link_mass=zero, link_inertia=zero, m02=0.5)
+    model = InertiaModel(link_mass=zero, link_inertia=zero, masses={"C": 0.5})
     th1, th4 = GRID
     e = 1e-6
     J = np.stack(
@@ -227,9 +228,9 @@ def test_motor_torques_nominal():
     t = np.linspace(0, P.period, 201)
     tau = motor_torques(P, t)
     # constant speed, no gravity: the mean power over a period is zero, rotors do no work
-    W = P.crank_speed
+    W = P.crank_speed_rad_s
     assert abs(np.trapezoid((tau[:, 0] + tau[:, 1] * P.speed_ratio) * W, t)) < 1e-10 * np.abs(tau).max() * W * P.period
-    no_rotor = inertia_model(P).replace(J1=0.0, J2=0.0)
+    no_rotor = inertia_model(P).replace(rotors={})
     assert np.allclose(motor_torques(P, t, inertia=no_rotor), tau, rtol=0, atol=1e-15)
     # torques scale with the square of the crank speed
     tau3 = motor_torques(P, t / 3, 3 * W)
@@ -238,15 +239,15 @@ def test_motor_torques_nominal():
 
 def test_shaft_inertia_option():
     m0, m1 = inertia_model(P), inertia_model(P, shaft_inertia=True)
-    mot = P.motor1
+    mot = P.motors["motor1"]
     extra = P.values["assumptions.shaft_rho"] * np.pi * mot.shaft_diameter**4 / 32 * (mot.l1 + mot.l2 + mot.l3)
-    assert m1.J1 == pytest.approx(m0.J1 + extra, rel=1e-14)
-    assert m1.J2 > m0.J2
+    assert m1.rotors["A"] == pytest.approx(m0.rotors["A"] + extra, rel=1e-14)
+    assert m1.rotors["E"] > m0.rotors["E"]
 
 
 def test_bad_input():
-    with pytest.raises(ValueError, match=r"InertiaModel.m02 = -1"):
-        inertia_model(P).replace(m02=-1.0)
+    with pytest.raises(ValueError, match=r"InertiaModel.masses\['C'\] = -1"):
+        inertia_model(P).replace(masses={"B": P.m01, "C": -1.0})
     with pytest.raises(ValueError, match=r"link_mass\['L2'\] = nan"):
         InertiaModel(link_mass={"L1": 1.0, "L2": float("nan"), "L3": 1.0, "L4": 1.0}, link_inertia={k: 0.0 for k in LINKS})
     with pytest.raises(ValueError, match="it must have exactly"):
@@ -275,10 +276,70 @@ def test_mass_matrix_against_the_finite_element_mass(mesh):
         [model.rigid_velocity(rigid_state(q, th[:, 0], w1, 0.0, th[:, 1], w4, 0.0)) for w1, w4 in ((1, 0), (0, 1))], -1
     )
     M_proj = np.einsum("...ni,...nm,...mj->...ij", V, M_fe, V)
-    links_only = inertia_model(q).replace(J1=0.0, J2=0.0)
+    links_only = inertia_model(q).replace(rotors={})
     D = M_proj - mass_matrix(q, th[:, 0], th[:, 1], inertia=links_only)
     scale = np.abs(M_proj).max()
     assert np.allclose(D[:, 0, 1], 0, atol=1e-13 * scale) and np.allclose(D[:, 1, 0], 0, atol=1e-13 * scale)
     assert np.allclose(D, D[0], rtol=0, atol=1e-13 * scale)  # the same at every configuration
-    shaft = np.array([inertia_model(q, shaft_inertia=True).J1 - q.motor1.J0, inertia_model(q, shaft_inertia=True).J2 - q.motor2.J0])
+    shaft = np.array([inertia_model(q, shaft_inertia=True).rotors[j] - q.crank_motors[j].J0 for j in ("A", "E")])
     assert np.all(D[0].diagonal() >= 0) and np.all(D[0].diagonal() <= shaft)
+
+
+def test_four_bar_crank_torque_is_the_energy_rate():
+    """A four-bar from its own description (one crank, no motor section): the crank torque of
+    the rigid model equals the power balance tau = d(T + V)/dt / theta', with T and V summed
+    body by body from finite differences of the loop-closure positions alone (no velocity of
+    rigid.py or rigid_state), along a non-uniform crank law and with a rotor on the crank."""
+    from fivebar import DEFAULT_PARAMS_PATH, FOURBAR_PARAMS_PATH
+    from fivebar.kinematics import link_angles
+
+    q = load_params([DEFAULT_PARAMS_PATH, FOURBAR_PARAMS_PATH]).replace(gravity=9.81)
+    lk = q.linkage
+    assert len(lk.cranks) == 1 and q.crank_motors == {}
+    W, a, J = 2.0 * np.pi, 0.3, 2e-3  # crank law theta = W t + a sin(W t); rotor J (kg m^2)
+
+    def theta(t):
+        return W * t + a * np.sin(W * t)
+
+    def energy(t):
+        h = 1e-6
+        th = [theta(t - h), theta(t + h)]
+        pos = [positions(q, x) for x in th]
+        ang = [link_angles(q, x) for x in th]
+        mid = {k.name: [(p[k.start] + p[k.end]) / 2 for p in pos] for k in lk.links}
+        T = 0.5 * J * ((th[1] - th[0]) / (2 * h)) ** 2
+        V = 0.0
+        for k in lk.links:
+            m = k.material.rho * k.section.area * k.length
+            v = (mid[k.name][1] - mid[k.name][0]) / (2 * h)
+            w = np.unwrap(np.stack([ang[0][k.name], ang[1][k.name]]), axis=0)
+            T += 0.5 * m * np.sum(v**2, -1) + 0.5 * m * k.length**2 / 12 * ((w[1] - w[0]) / (2 * h)) ** 2
+            V += m * 9.81 * (mid[k.name][0][..., 1] + mid[k.name][1][..., 1]) / 2
+        for pin, m in lk.masses.items():
+            v = (pos[1][pin] - pos[0][pin]) / (2 * h)
+            T += 0.5 * m * np.sum(v**2, -1)
+            V += m * 9.81 * (pos[0][pin][..., 1] + pos[1][pin][..., 1]) / 2
+        return T + V
+
+    t = np.linspace(0.0, 1.0, 13)
+    dt = 1e-4
+    power = (energy(t + dt) - energy(t - dt)) / (2 * dt)
+    omega = W * (1 + a * np.cos(W * t))
+    laws = (theta(t), omega, -a * W**2 * np.sin(W * t))
+    tau = inverse_dynamics(q, *laws, inertia=inertia_model(q).replace(rotors={"A": J}))
+    assert tau.shape == (13, 1)
+    scale = np.abs(tau).max()
+    assert np.allclose(tau[:, 0], power / omega, rtol=0, atol=1e-5 * scale)
+    # and its one-coordinate mass matrix against the kinetic energy: T = M theta'^2 / 2
+    M = mass_matrix(q, theta(t), inertia=inertia_model(q).replace(rotors={"A": J}))
+    assert M.shape == (13, 1, 1)
+    T = kinetic_energy(q, theta(t), omega, inertia=inertia_model(q).replace(rotors={"A": J}))
+    assert np.allclose(T, 0.5 * M[:, 0, 0] * omega**2, rtol=1e-12)
+
+
+def test_inertia_model_names_only_the_description():
+    four = load_params([__import__("fivebar").DEFAULT_PARAMS_PATH, __import__("fivebar").FOURBAR_PARAMS_PATH])
+    with pytest.raises(ValueError, match=r"InertiaModel.rotors names \['E'\]"):
+        mass_matrix(four, 0.0, inertia=inertia_model(four).replace(rotors={"E": 1.0}))
+    with pytest.raises(ValueError, match="2 crank angles given: the linkage 'four-bar crank-rocker' has 1"):
+        mass_matrix(four, 0.0, 0.0)

@@ -160,7 +160,7 @@ def mode_frames(params: Params, n_modes: int = 3, frames: int = 36, points: int 
         raise InputError(f"n_modes = {n_modes!r} is not allowed: give an integer number of modes from 1 to 6")
     n = int(n_modes)
     phi = np.arange(F) * 2 * np.pi / F
-    th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed)
+    th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed_rad_s)
     model = build_model(params, motors=motors)
     f = np.empty((F, n))
     V = np.empty((F, model.n, n))

@@ -472,7 +472,7 @@ def build_model(
         Me[lnk.name], Ke[lnk.name] = _link_element(lnk, ne, params)
     Mm, Km = {}, {}
     for i, (_, section) in enumerate(lk.motors if motors else (), start=1):
-        Mm[i], Km[i] = motor_element(getattr(params, section))
+        Mm[i], Km[i] = motor_element(params.motors[section])
     model = Model(
         params=params,
         elements_per_link=epl,

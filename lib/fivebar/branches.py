@@ -107,7 +107,7 @@ class LinkagePeriodMap:
     def __call__(self, x, p=None, jacobian=False):
         s, dyn = self.dynamics(self.setup_value() if p is None else p)
         n = dyn.n
-        W = dyn.params.crank_speed
+        W = dyn.params.crank_speed_rad_s
         x = np.asarray(x, float)
         u0, v0 = x[:n], W * x[n:]
         if jacobian:
@@ -124,13 +124,13 @@ class LinkagePeriodMap:
 
     def state(self, st: SteadyState) -> Array:
         """The map's state of a steady period (at crank angle 0)."""
-        return np.r_[st.u[0], st.v[0] / st.dynamics.params.crank_speed]
+        return np.r_[st.u[0], st.v[0] / st.dynamics.params.crank_speed_rad_s]
 
     def steady(self, x: Array, p: float) -> SteadyState:
         """One stored period from the state ``x`` at ``p`` (a :class:`SteadyState`)."""
         s, dyn = self.dynamics(p)
         n = dyn.n
-        res = _period(dyn, x[:n], dyn.params.crank_speed * x[n:], s.scheme)
+        res = _period(dyn, x[:n], dyn.params.crank_speed_rad_s * x[n:], s.scheme)
         return SteadyState(dyn, res.t, res.u, res.v, "continuation", 1, scheme=s.scheme)
 
 
@@ -268,7 +268,7 @@ def _scan_scale(f: LinkagePeriodMap, p0: float, p_end: float, count: int = 12) -
         raise InputError("no orbit of the linear model found across the range to scale the state: give scale=")
     E, dyn = best
     sd = dyn.step_data
-    return np.r_[E / np.sqrt(np.diag(sd.K[0])), E / (dyn.params.crank_speed * np.sqrt(np.diag(sd.M[0])))]
+    return np.r_[E / np.sqrt(np.diag(sd.K[0])), E / (dyn.params.crank_speed_rad_s * np.sqrt(np.diag(sd.M[0])))]
 
 
 @_one_blas_thread

@@ -9,7 +9,7 @@ linkage (M, C, K and F at the S step times, owned by
 tables and the small tables of the elements (Gauss-Legendre nodes, element integrals).  The
 per-result values of a :class:`fivebar.response.Response` (its element displacements, its
 stresses) belong to that result, and the LU factors of a step's tangent to its
-:class:`fivebar.newmark.PeriodicStepData`: they go with their object (a stored
+:class:`fivebar.systems.PeriodicStepData`: they go with their object (a stored
 :class:`~fivebar.dynamics.LinkageDynamics` carries its step data, so they count here).
 
 The store forgets the least recently used entry first, while it holds more than

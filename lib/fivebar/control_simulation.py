@@ -41,7 +41,9 @@ from .control_design import Servo
 from .errors import InputError, InputTypeError
 from .free_rotors import FlexibleLinkage, _count, _positive, feedforward
 from .kinematics import crank_laws
-from .newmark import PeriodicStepData, Scheme, System, integrate
+from .newmark import integrate
+from .schemes import Scheme
+from .systems import PeriodicStepData, System
 from .periodic import floquet_multipliers
 from .params import Params
 from .setup import Setup, as_setup

@@ -106,7 +106,7 @@ def frequencies_table(params: Params, angles_deg=FREQUENCY_ANGLES_DEG, n_modes: 
     params = _params(params)
     phi = np.radians(array("angles_deg", angles_deg))
     n = number("n_modes", n_modes, integer=True, low=1)
-    th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed)
+    th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed_rad_s)
     f = frequencies_along_cycle(params, phi, n_modes=n)
     out = {"crank angle AB (deg)": np.degrees(phi), "theta1 (deg)": np.degrees(th1), "theta4 (deg)": np.degrees(th4)}
     out.update({f"f{k + 1} (Hz)": f[:, k] for k in range(f.shape[1])})

@@ -52,7 +52,8 @@ from .errors import ComputationError, InputError
 from .assembly import Model, build_model
 from .cache import STORE
 from .kinematics import crank_laws, rigid_state
-from .newmark import PeriodicStepData, _blas_threads
+from .newmark import _blas_threads
+from .systems import PeriodicStepData
 from .nonlinear import ElementGeometry, NonlinearForce
 from .params import Params
 
@@ -104,7 +105,7 @@ class LinkageDynamics:
 
     ``dyn = LinkageDynamics(params)``; ``dyn.step_data`` feeds
     :func:`fivebar.newmark.integrate`, and ``dyn`` itself is a
-    :class:`fivebar.newmark.SecondOrderSystem` (matrices at any time, nonlinear force).
+    :class:`fivebar.systems.SecondOrderSystem` (matrices at any time, nonlinear force).
 
     Parameters
     ----------
@@ -190,7 +191,7 @@ class LinkageDynamics:
         except TypeError:  # an unhashable parameter set: no cache
             return self._sample(t)
         self._key = key
-        W2 = p.crank_speed ** 2
+        W2 = p.crank_speed_rad_s ** 2
 
         def make():
             hit = self._nested(key, t, W2)
@@ -319,7 +320,7 @@ class LinkageDynamics:
 
     def compiled_nonlinear(self, step_data: PeriodicStepData):
         """The nonlinear force for the compiled time loop (the optional member of
-        :class:`fivebar.newmark.SecondOrderSystem`): ``(force, rdata, idata)`` of
+        :class:`fivebar.systems.SecondOrderSystem`): ``(force, rdata, idata)`` of
         :meth:`fivebar.nonlinear.NonlinearForce.compiled`, sampled at the S step times; None when
         the model is linear or ``step_data`` does not sample this model's period at its step
         times (then the Python loop serves, with ``nonlinear``).

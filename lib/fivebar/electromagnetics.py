@@ -313,7 +313,7 @@ def mmf_components(
 ) -> dict[str, float]:
     r"""Amplitudes of the four MMF waves, eqs. (A.9)-(A.10) with E7 (A).
 
-    ``F = mmf_components(params.motor1, "calibrated", params.gap_flux_density)``
+    ``F = mmf_components(params.motors["motor1"], "calibrated", params.gap_flux_density)``
 
     Parameters
     ----------
@@ -507,7 +507,7 @@ def electromagnetic_stiffness(
 ) -> NDArray[np.float64]:
     r"""Electromagnetic stiffness :math:`\bar K_{12}(t)` of the motor element, eq. (A.4) (N/m).
 
-    ``K12 = electromagnetic_stiffness(params.motor1, params, t)``
+    ``K12 = electromagnetic_stiffness(params.motors["motor1"], params, t)``
 
     Parameters
     ----------
@@ -585,7 +585,7 @@ def stiffness_harmonics(
 
     :math:`\bar K_{12}(t) = K_0 + K_c\cos 2\omega_e t + K_s \sin 2\omega_e t`.
 
-    ``K0, Kc, Ks = stiffness_harmonics(params.motor2, params)``
+    ``K0, Kc, Ks = stiffness_harmonics(params.motors["motor2"], params)``
 
     :math:`|C|^2` and :math:`C^2` hold only the frequencies 0 and :math:`2\omega_e`, so three
     samples determine the three matrices exactly.  :math:`K_0` is the mean (period-averaged)

@@ -487,7 +487,7 @@ def motor_shape_functions(
 def motor_element(motor: Motor, variant: Variant = "corrected") -> tuple[np.ndarray, np.ndarray]:
     r"""Mass :math:`\bar M_1` (A.3) and shaft stiffness :math:`\bar K_{11}` (A.4) of a motor.
 
-    ``M, K11 = motor_element(params.motor1)``
+    ``M, K11 = motor_element(params.motors["motor1"])``
 
     The shaft is solid and round (:func:`shaft_section` of ``motor.shaft_diameter``), of
     density ``shaft_rho``, moduli ``shaft_E`` and ``shaft_G``.  The transverse mass density is

@@ -4,7 +4,7 @@
 standard base (:class:`ValueError` for bad input, :class:`RuntimeError` for a computation that
 failed), so ``except ValueError`` written before this base existed still works.
 
-This module imports nothing of the linkage: the generic solvers (``newmark``, ``multiscale``)
+This module imports nothing of the linkage: the generic solvers (``schemes``, ``systems``, ``newmark``, ``multiscale``)
 derive their errors from it too.  It also holds the one validation helper of every argument
 (:func:`number`, with :func:`flag`, :func:`choice`, :func:`array` and the memory check
 :func:`memory`), so that NumPy scalars are accepted everywhere a number is and every message

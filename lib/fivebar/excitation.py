@@ -269,11 +269,18 @@ def excitation_frequencies(
         raise ExcitationError(f"supply = {supply!r} is not allowed: use 'crank' or 'mains'")
     if crank_speed_rpm is not None:
         params = params.replace(crank_speed_rpm=crank_speed_rpm)
-    W1 = params.crank_speed
-    W2 = params.speed_ratio * W1
+    lk = params.linkage
+    motors = params.crank_motors
+    if len(lk.cranks) != 2 or len(motors) != 2:
+        raise ExcitationError(
+            f"the excitation frequencies nu1..nu8 of (2.10) are those of two motor-driven cranks (the paper's "
+            f"five-bar); the linkage {lk.name!r} has {len(lk.cranks)} driven crank(s), {len(motors)} of them with "
+            "a motor")
+    speeds = [lk.joint(joint).drive.ratio * params.crank_speed_rad_s for joint in motors]  # type: ignore[union-attr]
+    W1, W2 = speeds
     fields = []
     rotors = []
-    for motor, W in ((params.motor1, W1), (params.motor2, W2)):
+    for motor, W in zip(motors.values(), speeds):
         p = params if supply == "mains" else params.replace(supply_frequency=supply_frequency_for_speed(motor, W))
         ff = field_frequencies(motor, p)
         fields.append(float(ff["field"]))

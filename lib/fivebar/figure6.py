@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import FivebarError
-from .newmark import Scheme
+from .schemes import Scheme
 from .params import Params
 from .rigid import motor_torques
 from .setup import PAPER_SCHEME
@@ -146,9 +146,10 @@ def speed_table(
         tau = np.abs(motor_torques(p, np.linspace(0.0, p.period, 181))).max(axis=0)
         row = {"crank speed (r/min)": rpm, **_row(res)}
         row["stress / yield"] = row["peak bending stress (MPa)"] * 1e6 / p.yield_stress
-        row["motor 1 torque (N m)"] = tau[0]
-        row["motor 2 torque (N m)"] = tau[1]
-        stall = p.motor1.stall_torque
+        for i, torque in enumerate(tau, start=1):  # the description's cranks, in chain order
+            row[f"motor {i} torque (N m)"] = torque
+        motors = list(p.crank_motors.values())
+        stall = motors[0].stall_torque if motors else None
         row["motor 1 torque / stall"] = tau[0] / stall if stall else np.nan
         rows.append(row)
     return pd.DataFrame(rows)

@@ -8,6 +8,12 @@ be free and the torques must be inputs.  This module builds that model;
 around it, and :mod:`fivebar.control_simulation` closes them along the nominal motion (the
 paper's "next step", section 6).
 
+**Five-bar only.**  The model is that of a linkage with two cranks, each driven by the motor
+section its joint names (the paper's five-bar): two rotor angles, two torques, the midpoints of
+its two couplers.  A description with another number of cranks or motors raises an
+:class:`~fivebar.errors.InputError` that says so; the rigid inertia (:func:`rigid_inertia`) and
+the feedforward (:func:`feedforward`) serve any description.
+
 **Coordinates.**  Start from the literal assembly of (A.12) (``tie_crank_roots=False``), whose
 crank-root slopes :math:`s_A, s_E` are free beam DOFs (absolute small rotations of the crank
 roots), and add one absolute angle :math:`\varphi_i` per rotor.  The shaft torsion of the motor
@@ -92,7 +98,7 @@ from numpy.typing import ArrayLike, NDArray
 from .assembly import Model, build_model
 from .elements import gauss_points, motor_shape_functions, shaft_section
 from .errors import ComputationError, InputError
-from .kinematics import LINKS, crank_laws, rigid_state
+from .kinematics import crank_laws, rigid_state
 from .params import Motor, Params
 from .rigid import InertiaModel, inertia_model, inverse_dynamics
 
@@ -151,9 +157,22 @@ def _outputs(names: Sequence[str]) -> tuple[str, ...]:
 
 
 
+def _two_motor_cranks(params: Params) -> tuple[tuple[str, Motor], ...]:
+    """(crank joint, motor) of the two motor-driven cranks the free-rotor model needs."""
+    lk = params.linkage
+    motors = tuple(params.crank_motors.items())
+    if len(lk.cranks) != 2 or len(motors) != 2:
+        raise InputError(
+            f"the free-rotor control model is of a linkage with two motor-driven cranks (the paper's five-bar); "
+            f"the linkage {lk.name!r} has {len(lk.cranks)} driven crank(s), {len(motors)} of them with a motor "
+            "(a crank names its motor section with motor = ...)")
+    return motors
+
+
 def _cycle_angles(params: Params, crank_angles: ArrayLike) -> tuple[NDArray, NDArray]:
+    _two_motor_cranks(params)
     phi = np.atleast_1d(_finite("crank_angles", crank_angles))
-    th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed)
+    th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed_rad_s)
     return th1, th4
 
 
@@ -172,7 +191,8 @@ def _shaft_terms(motor: Motor) -> tuple[float, NDArray]:
 
 
 def rigid_inertia(params: Params, rotor_inertia_scale: float = 1.0) -> InertiaModel:
-    """The rigid 2-DOF inertia model consistent with the flexible model of this module.
+    """The rigid inertia model consistent with the flexible model of this module (any
+    description: one rotor per motor-driven crank).
 
     ``inertia = rigid_inertia(params)``; pass it to :func:`fivebar.rigid.mass_matrix` or
     :func:`fivebar.rigid.inverse_dynamics`.
@@ -197,10 +217,9 @@ def rigid_inertia(params: Params, rotor_inertia_scale: float = 1.0) -> InertiaMo
     s = _positive("rotor_inertia_scale", rotor_inertia_scale)
     base = inertia_model(params, shaft_inertia=False)
     d2 = params.rotary_inertia * params.bending_depth**2
-    lengths = dict(zip(LINKS, params.lengths[:4]))
-    link_inertia = {k: base.link_mass[k] * (L**2 + d2) / 12.0 for k, L in lengths.items()}
-    J = [s * m.J0 + _shaft_terms(m)[0] for m in (params.motor1, params.motor2)]
-    return base.replace(link_inertia=link_inertia, J1=J[0], J2=J[1])
+    link_inertia = {k.name: base.link_mass[k.name] * (k.length**2 + d2) / 12.0 for k in params.linkage.links}
+    rotors = {joint: s * m.J0 + _shaft_terms(m)[0] for joint, m in params.crank_motors.items()}
+    return base.replace(link_inertia=link_inertia, rotors=rotors)
 
 
 def feedforward(
@@ -260,15 +279,21 @@ class FlexibleLinkage:
         elements_per_link: tuple[int, int, int, int] | None = None,
         rotor_inertia_scale: float = 1.0,
     ) -> None:
+        drives = _two_motor_cranks(params)
         s = _positive("rotor_inertia_scale", rotor_inertia_scale)
         self.params = params
         self.rotor_inertia_scale = s
         m: Model = build_model(params, elements_per_link=elements_per_link, motors=True, tie_crank_roots=False)
         self.model = m
+        lk = params.linkage
+        #: the crank links (chain order) and the two couplers whose midpoints are outputs
+        self._crank_links = tuple(lk.crank_link(joint).name for joint, _ in drives)
+        self._couplers = lk.couplers
         nu = m.n
         transverse = {d for i in (1, 2) for d in m.motor_dofs[i][:2]}
         coupling = {i: m.motor_dofs[i][3] for i in (1, 2)}
-        root = {1: m.dof_index("L1@A.slope"), 2: m.dof_index("L4@E.slope")}
+        root = {i: m.dof_index(f"{link}@{joint}.slope")
+                for i, (link, (joint, _)) in enumerate(zip(self._crank_links, drives), start=1)}
         keep = [d for d in range(nu) if d not in transverse and d not in coupling.values()]
         self.labels = ["phi1", "phi2"] + [m.dofs[d].label for d in keep]
         self.n = n = len(self.labels)
@@ -285,7 +310,7 @@ class FlexibleLinkage:
         self._Tu = T[2:]  # p -> literal model DOFs (rotor transverse zero)
         # the rotors' absolute-rate terms, constant in the configuration
         extra = np.zeros((nu + 2, nu + 2))
-        for i, motor in ((1, params.motor1), (2, params.motor2)):
+        for i, (_, motor) in enumerate(drives, start=1):
             Js, b = _shaft_terms(motor)
             extra[i - 1, i - 1] = s * motor.J0 + Js
             tw = 2 + np.array(m.motor_dofs[i][2:4])
@@ -336,7 +361,7 @@ class FlexibleLinkage:
         """
         st = rigid_state(self.params, theta1, omega1, alpha1, theta4, omega4, alpha4)
         a = self.model.rigid_acceleration(st)
-        return self._from_literal(a, np.stack([st.alpha["L1"], st.alpha["L4"]], -1))
+        return self._from_literal(a, np.stack([st.alpha[k] for k in self._crank_links], -1))
 
     def midpoint_rows(self, theta1: ArrayLike, theta4: ArrayLike) -> NDArray:
         """Rows c^T with w = c^T p: transverse displacement (m) of the midpoints of L2, L3,
@@ -344,7 +369,7 @@ class FlexibleLinkage:
         th1 = _finite("theta1", theta1)[..., None]
         th4 = _finite("theta4", theta4)[..., None]
         basis = self._Tu.T  # (n, nu): row j is the literal-model vector of unit p_j
-        rows = [self.model.link_displacement(basis, th1, th4, link, 0.5)[1] for link in ("L2", "L3")]
+        rows = [self.model.link_displacement(basis, th1, th4, link, 0.5)[1] for link in self._couplers]
         return np.stack(rows, -2)
 
     def elastic_midpoint_rows(self, theta1: ArrayLike, theta4: ArrayLike, Phi_r: NDArray | None = None) -> NDArray:

@@ -330,7 +330,7 @@ def rigid_state(params: Params, *laws: ArrayLike, mode: int | None = None) -> Ri
     )
 
 
-def crank_laws(params: Params, t: ArrayLike, crank_speed: float | None = None) -> tuple[NDArray, ...]:
+def crank_laws(params: Params, t: ArrayLike, crank_speed_rad_s: float | None = None) -> tuple[NDArray, ...]:
     """The drive laws of the description's cranks at times ``t`` (s).
 
     For the paper's five-bar both cranks turn at constant speed from their initial angles:
@@ -342,8 +342,8 @@ def crank_laws(params: Params, t: ArrayLike, crank_speed: float | None = None) -
     ----------
     t
         Times (s).
-    crank_speed
-        Omega (rad/s); ``None`` takes ``params.crank_speed``.
+    crank_speed_rad_s
+        Omega (rad/s); ``None`` takes ``params.crank_speed_rad_s``.
 
     Returns
     -------
@@ -352,15 +352,15 @@ def crank_laws(params: Params, t: ArrayLike, crank_speed: float | None = None) -
         five-bar ``(theta1, omega1, alpha1, theta4, omega4, alpha4)``.
     """
     t = np.asarray(t, float)
-    W = params.crank_speed if crank_speed is None else float(crank_speed)
+    W = params.crank_speed_rad_s if crank_speed_rad_s is None else float(crank_speed_rad_s)
     if not np.isfinite(W) or W <= 0:
-        raise InputError(f"crank_speed = {crank_speed!r} is not allowed: it must be a positive number (rad/s)")
+        raise InputError(f"crank_speed_rad_s = {crank_speed_rad_s!r} is not allowed: it must be a positive number (rad/s)")
     out: list[NDArray] = []
     for joint in params.linkage.cranks:
         out.extend(joint.drive.laws(t, W))  # type: ignore[union-attr]
     return tuple(out)
 
 
-def constant_speed_laws(params: Params, t: ArrayLike, crank_speed: float | None = None) -> RigidState:
+def constant_speed_laws(params: Params, t: ArrayLike, crank_speed_rad_s: float | None = None) -> RigidState:
     """Rigid state along the default crank laws (:func:`crank_laws`) at times ``t`` (s)."""
-    return rigid_state(params, *crank_laws(params, t, crank_speed))
+    return rigid_state(params, *crank_laws(params, t, crank_speed_rad_s))

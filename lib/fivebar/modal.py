@@ -132,7 +132,7 @@ def frequencies_along_cycle(
     ratio of the parameters).  Returns shape ``(len(crank_angles), n_modes)``.
     """
     phi = np.atleast_1d(np.asarray(crank_angles, float))
-    th = crank_laws(params, phi / params.crank_speed)[0::3]
+    th = crank_laws(params, phi / params.crank_speed_rad_s)[0::3]
     m = build_model(params, elements_per_link=elements_per_link, motors=motors)
     M, K = m.matrices(*th)
     return _eig(M, K, n_modes)[0]

@@ -151,14 +151,14 @@ def build(
     theta4: float | None = None,
     elements_per_link=DEFAULT_ELEMENTS,
     beta: float = 0.0,
-    crank_speed: float = 0.0,
+    crank_speed_rad_s: float = 0.0,
     ramp: float = 0.0,
 ) -> MultibodyModel:
     """Build the Exudyn model in the configuration of crank angles ``theta1, theta4`` (rad).
 
     ``theta1, theta4`` (``theta1`` alone for a linkage with one driven crank) default to the
     drives' initial angles (``params.theta1_0, params.theta4_0`` for the five-bar).  The root
-    slopes follow ``theta + offset(t)`` with the ramped crank law of speed ``crank_speed``
+    slopes follow ``theta + offset(t)`` with the ramped crank law of speed ``crank_speed_rad_s``
     (rad/s, times each drive's ratio; 0: frozen) and ramp time ``ramp`` (s).  ``beta`` is the
     Kelvin-Voigt damping time (s).
     """
@@ -222,7 +222,7 @@ def build(
     for joint, th0 in zip(lk.cranks, th):
         link = lk.crank_link(joint.name)
         th0 = th0 if link.start == joint.name else th0 + np.pi
-        drives.append((node_at(link, joint.name), th0, joint.drive.ratio * crank_speed))  # type: ignore[union-attr]
+        drives.append((node_at(link, joint.name), th0, joint.drive.ratio * crank_speed_rad_s))  # type: ignore[union-attr]
     for root, th0, W in drives:
         mk = mbs.AddMarker(ii.MarkerNodeCoordinates(nodeNumber=root))
 
@@ -354,7 +354,7 @@ class MultibodySteadyState:
     @property
     def crank_angle_deg(self) -> NDArray:
         """Angle of crank AB (deg) from its initial angle, at the samples."""
-        return np.degrees(self.t * self.params.crank_speed)
+        return np.degrees(self.t * self.params.crank_speed_rad_s)
 
     def _rigid(self, link: str):
         p = self.params
@@ -473,12 +473,12 @@ def multibody_steady_state(
         raise InputError(f"ramp_periods = {ramp_periods!r} is not allowed: give an even number >= 0")
     if not tol > 0:
         raise InputError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
-    T, W = params.period, params.crank_speed
+    T, W = params.period, params.crank_speed_rad_s
     th0 = _theta(params, None, None)
     f = multibody_frequencies(params, th0[0], th0[1] if len(th0) > 1 else None, damping_mode, elements_per_link)
     beta = 2 * params.damping_ratio / (2 * np.pi * f[damping_mode - 1])
     t0 = time.perf_counter()
-    model = build(params, elements_per_link=elements_per_link, beta=beta, crank_speed=W,
+    model = build(params, elements_per_link=elements_per_link, beta=beta, crank_speed_rad_s=W,
                   ramp=ramp_periods * T)
     mbs = model.mbs
     sub = steps_per_period // S

@@ -1,4 +1,4 @@
-r"""Implicit Newmark time integration of time-varying nonlinear structural systems.
+r"""Implicit time integration of time-varying nonlinear structural systems, (4.1)-(4.4).
 
 This module implements section 4 of the paper, eqs. (4.1)-(4.4), for a generic system
 
@@ -9,30 +9,9 @@ This module implements section 4 of the paper, eqs. (4.1)-(4.4), for a generic s
 
 with ``n`` degrees of freedom and dense matrices.  It knows nothing of the five-bar linkage:
 the model supplies ``M, C, K, F`` (and the nonlinear force) through a small protocol
-(:class:`SecondOrderSystem`, or the concrete :class:`System`).
-
-**The Newmark rule, (4.2)-(4.3).**  One period ``T`` is divided into ``S`` steps, (4.1)
-:math:`T = S\,\Delta t`.  With the paper's parameters :math:`(\varsigma, \vartheta)`, here
-``(gamma, beta)``,
-
-.. math::
-
-    \dot{\mathbf u}_{n+1} = \dot{\mathbf u}_n
-        + \big((1-\gamma)\ddot{\mathbf u}_n + \gamma\,\ddot{\mathbf u}_{n+1}\big)\Delta t,
-        \qquad (4.2)
-
-    \mathbf u_{n+1} = \mathbf u_n + \dot{\mathbf u}_n\Delta t
-        + \big((\tfrac12-\beta)\ddot{\mathbf u}_n + \beta\,\ddot{\mathbf u}_{n+1}\big)\Delta t^2
-        \qquad (4.3)
-
-(the paper prints :math:`\vartheta\,\mathbf u_{t+\Delta t}` in (4.3); the acceleration
-:math:`\vartheta\,\ddot{\mathbf u}_{t+\Delta t}` is meant, errata E21).  The rule is
-unconditionally stable for :math:`\gamma \ge \tfrac12`,
-:math:`\beta \ge \tfrac14(\gamma+\tfrac12)^2`, the condition printed under (4.3).  The
-default is the average-acceleration (trapezoidal) rule :math:`\gamma=\tfrac12,\ \beta=\tfrac14`:
-second order, no numerical dissipation.  Section 5 prints
-:math:`(\varsigma,\vartheta)=(0.25, 0.5)`, outside that region; it is read as
-:math:`(0.5, 0.25)` (errata E2) and the printed pair raises :class:`UnstableParametersError`.
+(:class:`fivebar.systems.SecondOrderSystem`, or the concrete :class:`fivebar.systems.System`).
+The schemes (Newmark's rule (4.2)-(4.3) and the dissipative alpha schemes, with their stability
+conditions) are :mod:`fivebar.schemes`; this module is the integrator, :func:`integrate`.
 
 **The equation at** :math:`t_{n+1}` **, (4.4).**  Writing
 :math:`\tilde{\mathbf u} = \mathbf u_n + \Delta t\,\dot{\mathbf u}_n
@@ -59,7 +38,7 @@ solved by Newton-Raphson with the consistent tangent
 
 A linear system (no ``f_nl``) takes one solve per step.  Factorisations are reused when the
 tangent does not change (time-invariant linear systems, or periodic systems whose per-step
-matrices are precomputed in a :class:`PeriodicStepData`).
+matrices are precomputed in a :class:`fivebar.systems.PeriodicStepData`).
 
 **Numerical dissipation (optional).**  The generalised-alpha family of Chung & Hulbert (1993)
 evaluates the equation at intermediate points, with forces interpolated between
@@ -77,18 +56,13 @@ the time :math:`t_{n+1-\alpha_f}` where the forces are taken: with a time-varyin
 :math:`\mathbf M_{n+1}` there would make the scheme first order) and the tangent
 :math:`\mathbf S = (1-\alpha_m)\bar{\mathbf M}/(\beta\Delta t^2)
 + (1-\alpha_f)\big(\gamma\mathbf C_{n+1}/(\beta\Delta t) + \mathbf K_{n+1} + \mathbf K_t\big)`.
-:class:`Newmark` is :math:`\alpha_m=\alpha_f=0`; :class:`HHT` (Hilber, Hughes & Taylor 1977)
-is :math:`\alpha_m=0,\ \alpha_f=-\alpha`, :math:`\alpha\in[-\tfrac13,0]`,
-:math:`\gamma=\tfrac12-\alpha`, :math:`\beta=\tfrac14(1-\alpha)^2`, spectral radius
-:math:`(1+\alpha)/(1-\alpha)` at :math:`\omega\Delta t\to\infty`;
-:class:`GeneralizedAlpha` takes the spectral radius :math:`\rho_\infty\in[0,1]`:
-:math:`\alpha_m=(2\rho_\infty-1)/(\rho_\infty+1)`, :math:`\alpha_f=\rho_\infty/(\rho_\infty+1)`,
-:math:`\gamma=\tfrac12-\alpha_m+\alpha_f`, :math:`\beta=\tfrac14(1-\alpha_m+\alpha_f)^2`.
-All are second order and unconditionally stable for linear systems.
+:class:`~fivebar.schemes.Newmark` is :math:`\alpha_m=\alpha_f=0`;
+:class:`~fivebar.schemes.HHT` and :class:`~fivebar.schemes.GeneralizedAlpha` set the alphas
+from one parameter each (:mod:`fivebar.schemes`).
 
 **State and sensitivity.**  The integrator carries :math:`(\mathbf u,\dot{\mathbf u},
 \ddot{\mathbf u})`; the initial acceleration is by default the consistent one, from the
-equation of motion at :math:`t_0`.  For :class:`Newmark` the carried acceleration satisfies the
+equation of motion at :math:`t_0`.  For :class:`~fivebar.schemes.Newmark` the carried acceleration satisfies the
 equation at every step, so the one-step map is a map of :math:`(\mathbf u, \dot{\mathbf u})`
 (dimension :math:`2n`); the alpha schemes carry an *algorithmic* acceleration that is a genuine
 third state (dimension :math:`3n`): restarting them from the consistent acceleration every step
@@ -115,7 +89,7 @@ and :math:`\delta\dot{\mathbf u}_{n+1} = \delta\tilde{\mathbf v} + \gamma\Delta 
 predictors, the residual and its reference norm, the Newton test and update, the tangent and its
 LU, the alpha history, the sensitivity step) is a set of small compiled functions
 (``fivebar._kernels``, numba, cached on disk) and nothing else.  Two loops call them: a compiled
-loop, whenever the data allow it (per-step matrices from a :class:`PeriodicStepData`, or a
+loop, whenever the data allow it (per-step matrices from a :class:`~fivebar.systems.PeriodicStepData`, or a
 time-invariant system, with no nonlinear force or one the system supplies compiled,
 ``system.compiled_nonlinear(step_data)``, as :class:`fivebar.dynamics.LinkageDynamics` does with
 the beam's strain force), and a Python loop for a generic system with Python callbacks (a
@@ -128,26 +102,23 @@ cache, which heals (a damaged file is discarded and rebuilt with a warning), is 
 is read-only, and is temporary (removed at exit) where nothing is writable:
 ``fivebar._jitcache``.
 
-References: N. M. Newmark, J. Eng. Mech. Div. ASCE 85 (1959) 67-94; H. M. Hilber,
-T. J. R. Hughes, R. L. Taylor, Earthquake Eng. Struct. Dyn. 5 (1977) 283-292; J. Chung,
+References: N. M. Newmark, J. Eng. Mech. Div. ASCE 85 (1959) 67-94; J. Chung,
 G. M. Hulbert, J. Appl. Mech. 60 (1993) 371-375.
 """
 
 from __future__ import annotations
 
 import contextlib
-import inspect
 import math
-import warnings
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any, Literal, Protocol, runtime_checkable
+from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .cache import STORE
-from .errors import ComputationError, FivebarError, InputError, InputTypeError, array, choice, flag, memory, number
+from .errors import FivebarError, InputError, InputTypeError, array, choice, memory, number
+from .schemes import GENERIC_SCHEME, Scheme, _check_scheme
+from .systems import PeriodicStepData, SecondOrderSystem, _check_system, _checked, _new_lu_cache, _nonlinear_at
 
 try:  # optional: limit BLAS threads inside the time loop (see ``integrate(blas_threads=...)``)
     from threadpoolctl import ThreadpoolController
@@ -155,21 +126,9 @@ except ImportError:  # pragma: no cover - the pinned environment has it
     ThreadpoolController = None
 
 __all__ = [
-    "GENERIC_SCHEME",
-    "GeneralizedAlpha",
-    "HHT",
     "MAX_ITER",
-    "Newmark",
     "NewmarkResult",
     "NewtonConvergenceError",
-    "PeriodicStepData",
-    "Scheme",
-    "SecondOrderSystem",
-    "System",
-    "UnstableParametersError",
-    "UnstableParametersWarning",
-    "amplification_matrix",
-    "consistent_acceleration",
     "integrate",
 ]
 
@@ -178,15 +137,6 @@ Array = NDArray[np.float64]
 #: The largest ``max_iter`` (Newton iterations per step) :func:`integrate` accepts: far above
 #: what a converging step takes (a few), and a bound on the time a step can spend.
 MAX_ITER = 1000
-
-
-# --- errors -----------------------------------------------------------------------------------
-class UnstableParametersError(FivebarError, ValueError):
-    """Integration parameters outside the unconditionally stable region."""
-
-
-class UnstableParametersWarning(RuntimeWarning):
-    """Parameters outside the unconditionally stable region were accepted on request."""
 
 
 class NewtonConvergenceError(FivebarError, RuntimeError):
@@ -209,433 +159,6 @@ class NewtonConvergenceError(FivebarError, RuntimeError):
         self.iterations = iterations
 
 
-# --- schemes ----------------------------------------------------------------------------------
-class Scheme:
-    """Base of the time-stepping schemes: the four generalised-alpha parameters.
-
-    Subclasses define ``gamma``, ``beta``, ``alpha_m`` and ``alpha_f`` (dimensionless).
-    """
-
-    gamma: float
-    beta: float
-    alpha_m: float
-    alpha_f: float
-
-    @property
-    def rho_infinity(self) -> float:
-        """Spectral radius of the one-step map as ``omega dt -> infinity``."""
-        raise NotImplementedError
-
-    @property
-    def is_newmark(self) -> bool:
-        """True if the scheme is plain Newmark (no alpha terms): the state is (u, v)."""
-        return self.alpha_m == 0.0 and self.alpha_f == 0.0
-
-
-@dataclass(frozen=True)
-class Newmark(Scheme):
-    """Newmark's rule (4.2)-(4.3) with ``(gamma, beta)`` = the paper's (varsigma, vartheta).
-
-    Parameters
-    ----------
-    gamma, beta : float
-        Newmark parameters (dimensionless).  Default 1/2, 1/4: average acceleration
-        (trapezoidal rule), the reading of the paper's section 5 (errata E2).
-    allow_unstable : bool
-        Accept parameters outside the unconditionally stable region ``gamma >= 1/2``,
-        ``beta >= (gamma + 1/2)^2 / 4`` with an :class:`UnstableParametersWarning` instead of
-        raising :class:`UnstableParametersError`.
-
-    Raises
-    ------
-    UnstableParametersError
-        Parameters outside the stable region (unless ``allow_unstable``), or ``beta <= 0``
-        (not an implicit scheme; never allowed), or a non-finite value.
-    """
-
-    gamma: float = 0.5
-    beta: float = 0.25
-    allow_unstable: bool = False
-    alpha_m: float = field(default=0.0, init=False)
-    alpha_f: float = field(default=0.0, init=False)
-
-    @property
-    def rho_infinity(self) -> float:
-        """Spectral radius as ``omega dt -> infinity``: roots of ``l^2 - tr l + det``.
-
-        With ``tr = (2 beta - gamma - 1/2) / beta`` and ``det = (1/2 + beta - gamma) / beta``
-        (the limit of the undamped one-step map on ``(v, a)``); 1 for the default rule.
-        """
-        g, b = self.gamma, self.beta
-        tr, det = (2 * b - g - 0.5) / b, (0.5 + b - g) / b
-        disc = tr * tr - 4 * det
-        if disc < 0:
-            return math.sqrt(det)
-        return max(abs(tr + math.sqrt(disc)), abs(tr - math.sqrt(disc))) / 2
-
-    def __post_init__(self) -> None:
-        g = number("gamma", self.gamma, error=UnstableParametersError)
-        b = number("beta", self.beta, error=UnstableParametersError)
-        object.__setattr__(self, "gamma", g)
-        object.__setattr__(self, "beta", b)
-        object.__setattr__(self, "allow_unstable", flag("allow_unstable", self.allow_unstable))
-        if b <= 0.0:
-            raise UnstableParametersError(
-                f"Newmark beta={b!r} must be > 0 for the implicit scheme (beta = 0 is the explicit "
-                "central-difference rule, not implemented here); the default is beta = 0.25"
-            )
-        bmin = 0.25 * (g + 0.5) ** 2
-        if g < 0.5 or b < bmin * (1.0 - 1e-12):
-            msg = (
-                f"Newmark parameters gamma={g!r}, beta={b!r} are outside the unconditionally "
-                f"stable region gamma >= 0.5 and beta >= (gamma + 0.5)^2 / 4 (= {bmin:.6g} here), "
-                "the condition stated under (4.3) of the paper. Note: the paper's section 5 prints "
-                "(varsigma, vartheta) = (0.25, 0.5), which is such a case; the book reads it as "
-                "(0.5, 0.25), the average-acceleration rule (errata E2). "
-            )
-            if not self.allow_unstable:
-                raise UnstableParametersError(msg + "Pass allow_unstable=True to use them anyway.")
-            warnings.warn(msg + "Accepted because allow_unstable=True.", UnstableParametersWarning,
-                          stacklevel=3)
-
-
-#: The scheme of the generic integrator when none is given (``integrate``, the generic
-#: periodic-orbit tools of :mod:`fivebar.periodic`): the average-acceleration rule.  The
-#: linkage's default is the parameter file's (:func:`fivebar.setup.default_scheme`).
-GENERIC_SCHEME: Newmark = Newmark()
-
-
-@dataclass(frozen=True)
-class HHT(Scheme):
-    """Hilber-Hughes-Taylor alpha method: Newmark with numerical dissipation.
-
-    Parameters
-    ----------
-    alpha : float
-        In ``[-1/3, 0]`` (dimensionless); 0 is the average-acceleration rule.  Sets
-        ``gamma = (1 - 2 alpha) / 2`` and ``beta = (1 - alpha)^2 / 4``; the spectral radius as
-        ``omega dt -> infinity`` is ``(1 + alpha) / (1 - alpha)``.
-    """
-
-    alpha: float = -0.05
-
-    def __post_init__(self) -> None:
-        a = number("alpha", self.alpha, error=UnstableParametersError)
-        object.__setattr__(self, "alpha", a)
-        if not -1.0 / 3.0 - 1e-15 <= a <= 0.0:
-            raise UnstableParametersError(
-                f"HHT alpha={a!r} must lie in [-1/3, 0] (the range where the scheme is second "
-                "order and unconditionally stable); alpha = 0 is the average-acceleration rule"
-            )
-
-    @property
-    def rho_infinity(self) -> float:
-        """Spectral radius as ``omega dt -> infinity``: ``(1 + alpha) / (1 - alpha)``."""
-        return (1.0 + self.alpha) / (1.0 - self.alpha)
-
-    @property
-    def gamma(self) -> float:  # type: ignore[override]
-        return 0.5 - self.alpha
-
-    @property
-    def beta(self) -> float:  # type: ignore[override]
-        return 0.25 * (1.0 - self.alpha) ** 2
-
-    @property
-    def alpha_m(self) -> float:  # type: ignore[override]
-        return 0.0
-
-    @property
-    def alpha_f(self) -> float:  # type: ignore[override]
-        return -self.alpha
-
-
-@dataclass(frozen=True)
-class GeneralizedAlpha(Scheme):
-    """Chung-Hulbert generalised-alpha method with prescribed high-frequency dissipation.
-
-    Parameters
-    ----------
-    rho_inf : float
-        Spectral radius of the one-step map as ``omega dt -> infinity``, in ``[0, 1]``
-        (dimensionless); 1 gives no dissipation (the average-acceleration rule's limit),
-        0 annihilates the highest modes in one step.
-    """
-
-    rho_inf: float = 0.8
-
-    def __post_init__(self) -> None:
-        r = number("rho_inf", self.rho_inf, error=UnstableParametersError)
-        object.__setattr__(self, "rho_inf", r)
-        if not 0.0 <= r <= 1.0:
-            raise UnstableParametersError(
-                f"generalised-alpha rho_inf={r!r} must lie in [0, 1] (the spectral radius at "
-                "omega dt -> infinity; values above 1 are unstable)"
-            )
-
-    @property
-    def rho_infinity(self) -> float:
-        """Spectral radius as ``omega dt -> infinity``: ``rho_inf`` by construction."""
-        return float(self.rho_inf)
-
-    @property
-    def alpha_m(self) -> float:  # type: ignore[override]
-        return (2.0 * self.rho_inf - 1.0) / (self.rho_inf + 1.0)
-
-    @property
-    def alpha_f(self) -> float:  # type: ignore[override]
-        return self.rho_inf / (self.rho_inf + 1.0)
-
-    @property
-    def gamma(self) -> float:  # type: ignore[override]
-        return 0.5 - self.alpha_m + self.alpha_f
-
-    @property
-    def beta(self) -> float:  # type: ignore[override]
-        return 0.25 * (1.0 - self.alpha_m + self.alpha_f) ** 2
-
-
-def amplification_matrix(scheme: Scheme, omega_dt: float, zeta: float = 0.0) -> Array:
-    r"""One-step amplification matrix of a scheme for the free oscillator.
-
-    For :math:`\ddot u + 2\zeta\omega\dot u + \omega^2 u = 0` the scheme maps
-    :math:`x_n = (u_n,\ \Delta t\,\dot u_n,\ \Delta t^2\ddot u_n)` to :math:`x_{n+1} = A x_n`.
-    Its eigenvalues give the numerical damping and period error (for :class:`Newmark` one
-    eigenvalue is 0: the acceleration is slaved to (u, v)).
-
-    Parameters
-    ----------
-    scheme : Scheme
-        The time-stepping scheme.
-    omega_dt : float
-        :math:`\Omega = \omega\Delta t` (rad), >= 0.
-    zeta : float
-        Damping ratio (dimensionless), >= 0.
-
-    Returns
-    -------
-    ndarray, shape (3, 3)
-    """
-    _check_scheme(scheme)
-    W = number("omega_dt", omega_dt, low=0.0)
-    zeta = number("zeta", zeta, low=0.0)
-    g, b, am, af = scheme.gamma, scheme.beta, scheme.alpha_m, scheme.alpha_f
-    c, k = 2.0 * zeta * W, W * W  # scaled damping and stiffness (dt = 1, m = 1)
-    # predictors as rows acting on x = (u, v, a) with dt = 1
-    P_u = np.array([1.0, 1.0, 0.5 - b])
-    P_v = np.array([0.0, 1.0, 1.0 - g])
-    # residual: (1-am) a1 + am a0 + (1-af)(c v1 + k u1) + af (c v0 + k u0) = 0,
-    # u1 = P_u x + b a1, v1 = P_v x + g a1
-    lhs = (1 - am) + (1 - af) * (c * g + k * b)
-    rhs = -(am * np.array([0.0, 0.0, 1.0]) + (1 - af) * (c * P_v + k * P_u)
-            + af * np.array([k, c, 0.0]))
-    a1 = rhs / lhs
-    return np.vstack([P_u + b * a1, P_v + g * a1, a1])
-
-
-def _check_scheme(scheme: Any) -> None:
-    if not isinstance(scheme, Scheme):
-        raise InputTypeError(
-            f"scheme = {scheme!r} ({type(scheme).__name__}) is not allowed: give a Newmark, HHT or "
-            "GeneralizedAlpha instance")
-
-
-# --- systems ----------------------------------------------------------------------------------
-def _check_system(system: Any) -> None:
-    for name in ("matrices", "force"):
-        if not callable(getattr(system, name, None)):
-            raise InputTypeError(
-                f"system = {system!r} ({type(system).__name__}) is not allowed: give a second-order "
-                "system with matrices(t) and force(t) (fivebar.newmark.System, or the linkage's dynamics)")
-
-@runtime_checkable
-class SecondOrderSystem(Protocol):
-    """What :func:`integrate` needs from a model.
-
-    Required methods: ``matrices(t) -> (M, C, K)``, each ``(n, n)`` (SI units of the model),
-    and ``force(t) -> F`` of shape ``(n,)``.  Optional members: ``nonlinear(u, t) -> (f_nl, K_t)``
-    (the internal nonlinear force, shape ``(n,)``, and its Jacobian ``d f_nl / d u``,
-    ``(n, n)``), absent or ``None`` for a linear system; ``time_invariant: bool`` (True if
-    ``M, C, K`` do not depend on ``t``, so one factorisation serves every step);
-    ``compiled_nonlinear(step_data) -> (force, rdata, idata)`` or None, the same nonlinear
-    force as a compiled function for the compiled loop (``fivebar._kernels.FORCE_SIG``:
-    ``force(u, k, rdata, idata, f, Kt, tangent)`` at the state ``u`` and step point ``k`` of
-    ``step_data``, its data in the float and integer arrays ``rdata``, ``idata``).
-    """
-
-    def matrices(self, t: float) -> tuple[Array, Array, Array]: ...
-
-    def force(self, t: float) -> Array: ...
-
-
-MatrixSpec = ArrayLike | Callable[[float], ArrayLike]
-
-
-class System:
-    """A concrete :class:`SecondOrderSystem` from arrays or functions of time.
-
-    Parameters
-    ----------
-    M, C, K : array_like (n, n) or callable ``t -> (n, n)``
-        Mass, damping and stiffness (SI).  Arrays are constant in time.
-    force : None, array_like (n,) or callable ``t -> (n,)``
-        External force ``F(t)``; None is zero.
-    nonlinear : None or callable ``(u, t) -> (f_nl, K_t)`` or ``u -> (f_nl, K_t)``
-        Internal nonlinear force and its tangent ``d f_nl / d u``; None for a linear system.
-    """
-
-    def __init__(
-        self,
-        M: MatrixSpec,
-        C: MatrixSpec,
-        K: MatrixSpec,
-        force: None | ArrayLike | Callable[[float], ArrayLike] = None,
-        nonlinear: None | Callable[[Array], tuple[Array, Array]] = None,
-    ) -> None:
-        self._mats: list[Any] = []
-        n = None
-        for name, X in (("M", M), ("C", C), ("K", K)):
-            if callable(X):
-                self._mats.append(X)
-            else:
-                A = np.array(array(name, X, shape=(n, n) if n is not None else None))
-                if A.ndim != 2 or A.shape[0] != A.shape[1]:
-                    raise InputError(f"{name} has shape {A.shape}: expected a square matrix (n, n)")
-                n = A.shape[0]
-                self._mats.append(A)
-        self.time_invariant = not any(callable(X) for X in self._mats)
-        if n is None:
-            n = np.shape(self._mats[0](0.0))[0]
-        self.n = int(n)
-        if force is None:
-            zero = np.zeros(self.n)
-            self._force: Callable[[float], Array] = lambda t: zero
-        elif callable(force):
-            self._force = lambda t: np.asarray(force(t), dtype=float)
-        else:
-            F = np.array(array("force", force, shape=(self.n,)))
-            self._force = lambda t: F
-        if nonlinear is not None and not callable(nonlinear):
-            raise InputTypeError(f"nonlinear = {nonlinear!r} is not allowed: give None or a callable "
-                                 "(u, t) -> (f_nl, K_t) or u -> (f_nl, K_t)")
-        if nonlinear is not None and _positional_arity(nonlinear) == 1:
-            self.nonlinear = lambda u, t: nonlinear(u)  # time-independent f_nl(u)
-        else:
-            self.nonlinear = nonlinear
-
-    def matrices(self, t: float) -> tuple[Array, Array, Array]:
-        """``(M, C, K)`` at time ``t`` (s)."""
-        out = [X(t) if callable(X) else X for X in self._mats]
-        return tuple(np.asarray(X, dtype=float) for X in out)  # type: ignore[return-value]
-
-    def force(self, t: float) -> Array:
-        """External force ``F(t)``, shape ``(n,)``."""
-        return self._force(t)
-
-
-def _positional_arity(f: Callable) -> int:
-    """Number of positional parameters of a callable (2 if it cannot be inspected)."""
-    try:
-        params = inspect.signature(f).parameters.values()
-    except (TypeError, ValueError):
-        return 2
-    kinds = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
-    if any(p.kind == inspect.Parameter.VAR_POSITIONAL for p in params):
-        return 2
-    return sum(p.kind in kinds for p in params)
-
-
-class PeriodicStepData:
-    """Matrices and forces of a periodic system at the ``S`` time points of one period.
-
-    Time point ``k`` is ``t0 + k * period / S``; point ``S`` equals point 0 (periodicity).
-    :func:`integrate` reads ``M, C, K, F`` from here instead of calling the system, and caches
-    the LU factorisation of each step's linear tangent (per scheme and step), so that later
-    periods cost only triangular solves.  The factors are this object's, kept in the library's
-    store (:mod:`fivebar.cache`, so that its byte bound counts them) for as long as this object
-    lives, or until the store lets them go (the next period factorises again).
-
-    Parameters
-    ----------
-    M, C, K : array_like, shape (S, n, n) or (n, n)
-        Per-step matrices (a 2-D array is the same at every step).
-    F : array_like, shape (S, n) or (n,)
-        Per-step external force.
-    t0 : float
-        Time of point 0 (s).
-    period : float
-        Period ``T = S dt`` (s), (4.1).
-    """
-
-    def __init__(self, M: ArrayLike, C: ArrayLike, K: ArrayLike, F: ArrayLike, t0: float,
-                 period: float) -> None:
-        arrs = [array(name, X) for name, X in (("M", M), ("C", C), ("K", K))]
-        F = array("F", F)
-        S = next((X.shape[0] for X in arrs if X.ndim == 3), F.shape[0] if F.ndim == 2 else None)
-        if S is None:
-            raise InputError(
-                f"M, C, K have shapes {[X.shape for X in arrs]} and F {F.shape}: PeriodicStepData needs "
-                "at least one per-step array (shape (S, n, n) or (S, n))")
-        n = arrs[0].shape[-1]
-        out = []
-        for name, X in zip(("M", "C", "K"), arrs):
-            if X.shape not in ((n, n), (S, n, n)):
-                raise InputError(
-                    f"{name} has shape {X.shape}: expected ({S}, {n}, {n}) or ({n}, {n})")
-            out.append(np.broadcast_to(X, (S, n, n)))
-        if F.shape not in ((n,), (S, n)):
-            raise InputError(f"F has shape {F.shape}: expected ({S}, {n}) or ({n},)")
-        period = number("period", period, low=0.0, low_open=True, unit="s")
-        t0 = number("t0", t0, unit="s")
-        self.M, self.C, self.K = out
-        #: True if M is the same at every step (a 2-D array was given)
-        self.M_constant = arrs[0].ndim == 2
-        self.F = np.broadcast_to(F, (S, n))
-        self.t0, self.period, self.steps, self.n = float(t0), float(period), int(S), int(n)
-        self.dt = self.period / self.steps
-        self._kernel_arrays: tuple[Array, Array, Array, Array] | None = None
-
-    @classmethod
-    def from_system(cls, system: SecondOrderSystem, t0: float, period: float,
-                    steps: int) -> PeriodicStepData:
-        """Sample ``system.matrices`` and ``system.force`` at ``t0 + k period/steps``, k < steps."""
-        steps = number("steps", steps, integer=True, low=1)
-        ts = t0 + period * np.arange(steps) / steps
-        mats = [system.matrices(float(t)) for t in ts]
-        return cls(
-            np.array([m[0] for m in mats]), np.array([m[1] for m in mats]),
-            np.array([m[2] for m in mats]),
-            np.array([system.force(float(t)) for t in ts]), t0, period,
-        )
-
-    def kernel_arrays(self) -> tuple[Array, Array, Array, Array]:
-        """``M, C, K, F`` as contiguous arrays for the time loop; an array that is the same at
-        every step is given once (leading dimension 1)."""
-        if self._kernel_arrays is None:
-            self._kernel_arrays = tuple(
-                np.ascontiguousarray(X[:1] if X.strides[0] == 0 else X, dtype=float)
-                for X in (self.M, self.C, self.K, self.F))
-        return self._kernel_arrays
-
-    def lu_cache(self, key: tuple[float, float, float, float]) -> tuple[Any, Any, Any]:
-        """The per-step LU cache of the linear tangent, ``(LU, piv, filled)``, for ``key =
-        (cM, cC, cK, alpha_f)``: the factors of ``cM Mb + cC C_k + cK K_k`` with ``Mb = (1 -
-        alpha_f) M_k + alpha_f M_{k-1}`` (``alpha_f`` 0 when M is constant) at each step point
-        ``k``, filled lazily by the time loop (either loop: one cache).  Kept in the library's
-        store with this object as its owner."""
-        slot = ("newmark.lu", id(self))
-        factors = STORE.lookup(slot)  # (an entry of an object gone is forgotten before this)
-        if factors is None or key not in factors:
-            factors = dict(factors or {})
-            factors[key] = _new_lu_cache(self.steps, self.n)
-            STORE.put(slot, factors, owner=self)
-        return factors[key]
-
-    def _lu_factors(self) -> dict[tuple[float, float, float, float], tuple[Any, Any, Any]]:
-        """The LU caches of :meth:`lu_cache` held now, by key (empty when the store has let
-        them go)."""
-        return dict(STORE.lookup(("newmark.lu", id(self)), None, touch=False) or {})
-
 
 _CONTROLLER: Any = None
 
@@ -653,40 +176,6 @@ def _blas_threads(k: int | None) -> contextlib.AbstractContextManager[Any]:
         _CONTROLLER = ThreadpoolController()
     return _CONTROLLER.limit(limits=int(k), user_api="blas")
 
-
-def consistent_acceleration(system: SecondOrderSystem, t: float, u: ArrayLike,
-                            v: ArrayLike) -> Array:
-    """Acceleration from the equation of motion: ``M(t) a = F(t) - C v - K u - f_nl(u)``.
-
-    Parameters
-    ----------
-    system : SecondOrderSystem
-    t : float
-        Time (s).
-    u, v : array_like (n,)
-        Displacement and velocity (model units, SI).
-
-    Returns
-    -------
-    ndarray (n,)
-        Acceleration.
-    """
-    _check_system(system)
-    t = number("t", t, unit="s")
-    u = array("u", u)
-    n = u.size
-    u, v = u.ravel(), array("v", v, shape=(n,))
-    M, C, K = (_checked(f"system: {name}(t = {t:.9g} s)", X, (n, n))
-               for name, X in zip("MCK", system.matrices(t)))
-    rhs = _checked(f"system: F(t = {t:.9g} s)", system.force(t), (n,)) - C @ v - K @ u
-    nl = getattr(system, "nonlinear", None)
-    if nl is not None:
-        rhs = rhs - _nonlinear_at(nl, u, t, n)[0]
-    try:
-        return np.linalg.solve(M, rhs)
-    except np.linalg.LinAlgError as exc:
-        raise ComputationError(
-            f"the mass matrix at t = {t:.9g} s is singular; pass a0 explicitly") from exc
 
 
 # --- result -----------------------------------------------------------------------------------
@@ -748,7 +237,7 @@ def integrate(
 
         res = integrate(system, u0, v0, t0, dt, nsteps)                      # (4.2)-(4.4)
         res = integrate(system, u0, v0, t0, T / S, S, sensitivity=True)      # + monodromy
-        res = integrate(system, u0, v0, t0, dt, n, GeneralizedAlpha(0.8))    # dissipative
+        res = integrate(system, u0, v0, t0, dt, n, HHT(-0.1))                # dissipative
 
     Parameters
     ----------
@@ -763,8 +252,8 @@ def integrate(
     nsteps : int
         Number of steps, >= 0.
     scheme : Scheme, optional
-        :class:`Newmark` (default: gamma = 1/2, beta = 1/4), :class:`HHT` or
-        :class:`GeneralizedAlpha`.
+        :class:`~fivebar.schemes.Newmark` (default: gamma = 1/2, beta = 1/4),
+        :class:`~fivebar.schemes.HHT` or :class:`~fivebar.schemes.GeneralizedAlpha`.
     a0 : array_like (n,), optional
         Initial acceleration; default the consistent one from the equation at ``t0``.
     step_data : PeriodicStepData, optional
@@ -786,7 +275,7 @@ def integrate(
     sensitivity : bool or {"uv", "uva"}
         Also return the product of the step Jacobians.  "uv": ``d(u_N, v_N)/d(u_0, v_0)`` with
         the initial acceleration consistent (2n x 2n; requires ``a0=None``); the exact
-        monodromy of the discrete map for :class:`Newmark`.  "uva": ``d(u_N, v_N, a_N) /
+        monodromy of the discrete map for :class:`~fivebar.schemes.Newmark`.  "uva": ``d(u_N, v_N, a_N) /
         d(u_0, v_0, a_0)`` (3n x 3n), the state of the alpha schemes.  True picks "uv" for
         Newmark and "uva" otherwise.
     directions : array_like (2n, m) or (3n, m), optional
@@ -1010,25 +499,10 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
                          monodromy=mono, state=state)
 
 
-def _checked(name: str, value: ArrayLike, shape: tuple[int, ...]) -> Array:
-    """A matrix or vector of the system as a contiguous float array of the expected shape."""
-    X = np.ascontiguousarray(value, dtype=float)
-    if X.shape != shape:
-        raise InputError(f"{name} has shape {X.shape}: expected {shape} for u0 of {shape[0]} DOFs")
-    return X
-
-
-def _nonlinear_at(nl: Callable, u: Array, t: float, n: int) -> tuple[Array, Array]:
-    """``system.nonlinear(u, t)`` checked: the force (n,) and its tangent (n, n)."""
-    f, Kt = nl(u.copy(), t)
-    return (_checked(f"system: nonlinear force at t = {t:.9g} s", f, (n,)),
-            _checked(f"system: nonlinear tangent at t = {t:.9g} s", Kt, (n, n)))
-
-
 def _march_python(kern, c, x, P, data, nl, t0, nsteps, k0, M_const, refactor, Kt0, cache, tol,
                   max_iter, full, X, iters) -> None:
     """The time loop in Python, for systems the compiled loop cannot serve (Python callbacks
-    of a generic :class:`SecondOrderSystem`, time-varying systems without step data): the
+    of a generic :class:`~fivebar.systems.SecondOrderSystem`, time-varying systems without step data): the
     step is the compiled loop's, its pieces (``fivebar._kernels``) called from here, with the
     system's matrices and nonlinear force from its callbacks.  Arguments as
     ``fivebar._kernels.march`` takes them; ``refactor``: factorise the linear tangent anew
@@ -1136,7 +610,3 @@ def _kernels() -> Any:
 
         _KERNELS = import_cached(f"{__package__}._kernels")
     return _KERNELS
-
-
-def _new_lu_cache(S: int, n: int) -> tuple[Array, NDArray[np.int64], NDArray[np.uint8]]:
-    return np.zeros((S, n, n)), np.zeros((S, n), dtype=np.int64), np.zeros(S, dtype=np.uint8)

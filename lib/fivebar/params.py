@@ -4,12 +4,13 @@ The paper's numbers (section 5) and the project's assumptions for the numbers it
 ``data/wang2011.toml``.  :func:`load_params` reads that file (and optionally further files
 layered over it), checks every entry and returns a frozen :class:`Params`.  Values are SI
 inside the library; the only exception is ``crank_speed_rpm``, kept in r/min because that is
-how people state it (``Params.crank_speed`` gives rad/s).
+how people state it (``Params.crank_speed_rad_s`` gives rad/s).
 """
 
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from importlib import resources
 from collections.abc import Iterable, Mapping
@@ -20,7 +21,7 @@ from typing import Any
 from .errors import FivebarError, ParameterError, plain
 from .linkage import Linkage, Material, Section, linkage_from_toml
 
-__all__ = ["Motor", "Params", "load_params", "DEFAULT_PARAMS_PATH", "FOURBAR_PARAMS_PATH"]
+__all__ = ["Motor", "Motors", "Params", "load_params", "DEFAULT_PARAMS_PATH", "FOURBAR_PARAMS_PATH"]
 
 #: The parameter file shipped with the package (``fivebar/data/wang2011.toml``, package data
 #: read through ``importlib.resources``; ``data/wang2011.toml`` of the repository links to it).
@@ -44,6 +45,10 @@ _MOTOR_KEYS = {
     "R01": ("pos", "m"),
 }
 _OPTIONAL_MOTOR_KEYS = {"stall_torque": ("pos", "N m"), "rated_current": ("pos", "A")}
+#: A motor section is ``[motor<k>]`` (any number of them; a crank of the linkage names the one
+#: that drives it), its shaft diameter the entry ``assumptions.shaft_diameter_<k>``.
+_MOTOR_SECTION = re.compile(r"motor(\d+)")
+_SHAFT_DIAMETER = re.compile(r"assumptions\.shaft_diameter_(\d+)")
 
 _SCHEMA: dict[str, tuple[Any, str]] = {
     "geometry.width": ("pos", "m"),
@@ -57,7 +62,6 @@ _SCHEMA: dict[str, tuple[Any, str]] = {
     "simulation.steps_per_period": ("posint", "-"),
     "simulation.scheme": (("choice", ("generalized-alpha", "newmark")), "-"),
     "simulation.rho_infinity": ("unit", "-"),
-    **{f"motor{i}.{k}": v for i in (1, 2) for k, v in _MOTOR_KEYS.items()},
     "assumptions.crank_speed_rpm": ("pos", "r/min"),
     "assumptions.speed_ratio": ("pos", "-"),
     "assumptions.bending_depth": ("pos", "m"),
@@ -69,8 +73,6 @@ _SCHEMA: dict[str, tuple[Any, str]] = {
     "assumptions.phase_phi10": ("real", "rad"),
     "assumptions.phase_phi20": ("real", "rad"),
     "assumptions.static_eccentricity_angle": ("real", "rad"),
-    "assumptions.shaft_diameter_1": ("pos", "m"),
-    "assumptions.shaft_diameter_2": ("pos", "m"),
     "assumptions.shaft_E": ("pos", "Pa"),
     "assumptions.shaft_G": ("pos", "Pa"),
     "assumptions.shaft_rho": ("pos", "kg/m^3"),
@@ -81,8 +83,7 @@ _SCHEMA: dict[str, tuple[Any, str]] = {
     "assumptions.strain_measure": (("choice", ("uniform", "corotated", "literal")), "-"),
     "assumptions.damping_model": (("choice", ("modal", "stiffness")), "-"),
 }
-_OPTIONAL = {f"motor{i}.{k}": v for i in (1, 2) for k, v in _OPTIONAL_MOTOR_KEYS.items()}
-_ALL_KEYS = {**_SCHEMA, **_OPTIONAL}
+_ALL_KEYS = dict(_SCHEMA)
 #: sections whose entries are free names (the numbers a linkage description refers to)
 _OPEN = {"geometry": ("pos", "m"), "masses": ("nonneg", "kg")}
 
@@ -103,9 +104,20 @@ def _describe(rule: Any, unit: str) -> str:
     return text if unit == "-" else f"{text} ({unit})"
 
 
+def _motor_rule(key: str) -> tuple[Any, str] | None:
+    """The rule of an entry of a motor section or of a motor's shaft diameter (None if the key is
+    neither)."""
+    section, _, name = key.partition(".")
+    if _MOTOR_SECTION.fullmatch(section):
+        return _MOTOR_KEYS.get(name) or _OPTIONAL_MOTOR_KEYS.get(name)
+    if _SHAFT_DIAMETER.fullmatch(key):
+        return ("pos", "m")
+    return None
+
+
 def _check(key: str, value: Any) -> Any:
     """Validate one entry; return it as float, int or str."""
-    rule, unit = _ALL_KEYS[key] if key in _ALL_KEYS else _OPEN[key.split(".", 1)[0]]
+    rule, unit = _ALL_KEYS.get(key) or _motor_rule(key) or _OPEN[key.split(".", 1)[0]]
     value = plain(value)  # NumPy numbers as Python ones
     bad = ParameterError(f"{key} = {value!r} is not allowed: it must be {_describe(rule, unit)}")
     if isinstance(rule, tuple):
@@ -184,6 +196,45 @@ class Motor:
         return self.l1 + self.l2 + self.l3
 
 
+class Motors(Mapping):
+    """The motor sections of a parameter file: section name (``"motor1"``) -> :class:`Motor`.
+
+    Read-only and hashable (a :class:`Params` is a cache key); a missing name raises a
+    :class:`~fivebar.errors.ParameterError` that lists the sections there are.
+    """
+
+    def __init__(self, motors: Mapping[str, Motor]) -> None:
+        self._items = tuple(motors.items())
+
+    def __getitem__(self, name: str) -> Motor:
+        for key, motor in self._items:
+            if key == name:
+                return motor
+        raise ParameterError(f"motor section {name!r} is not in the parameter file: its motor sections are "
+                             f"{list(self)}")
+
+    def __contains__(self, name: object) -> bool:
+        return any(key == name for key, _ in self._items)
+
+    def get(self, name: str, default: Any = None) -> Any:
+        return self[name] if name in self else default
+
+    def __iter__(self):
+        return (key for key, _ in self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __hash__(self) -> int:
+        return hash(self._items)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Motors) and self._items == other._items
+
+    def __repr__(self) -> str:
+        return f"Motors({dict(self._items)!r})"
+
+
 @dataclass(frozen=True)
 class Params:
     """Frozen, validated parameter set of the five-bar linkage (SI units).
@@ -194,7 +245,9 @@ class Params:
     description (:class:`fivebar.linkage.Linkage`) of the ``[linkage]`` section.  The entries
     of ``[geometry]`` and ``[masses]`` that the description refers to are attributes too
     (``params.L5``, ``params.m01`` for the paper's file), and so is each link's length by the
-    link's name (``params.L2``).
+    link's name (``params.L2``).  ``motors`` maps each motor section of the file to its
+    :class:`Motor` (``params.motors["motor1"]``); :attr:`crank_motors` gives the motor of each
+    crank the description drives by one.
     """
 
     linkage: Linkage
@@ -209,8 +262,7 @@ class Params:
     steps_per_period: int
     scheme: str
     rho_infinity: float
-    motor1: Motor
-    motor2: Motor
+    motors: Motors
     crank_speed_rpm: float
     speed_ratio: float
     bending_depth: float
@@ -235,7 +287,7 @@ class Params:
 
     def __getattr__(self, name: str) -> Any:
         # the free entries of [geometry] and [masses] and the links' lengths, read-only
-        if name.startswith("_") or name in ("values", "meta", "linkage", "references"):
+        if name.startswith("_") or name in ("values", "meta", "linkage", "references", "motors"):
             raise AttributeError(name)
         for link in self.linkage.links:
             if link.name == name:
@@ -261,14 +313,20 @@ class Params:
         return self.A / d * d**3 / 12.0
 
     @property
-    def crank_speed(self) -> float:
+    def crank_speed_rad_s(self) -> float:
         """Speed of crank AB (rad/s)."""
         return self.crank_speed_rpm * 2.0 * math.pi / 60.0
 
     @property
     def period(self) -> float:
         """Period of the motion (s): one turn of crank AB (for speed_ratio 1)."""
-        return 2.0 * math.pi / self.crank_speed
+        return 2.0 * math.pi / self.crank_speed_rad_s
+
+    @property
+    def crank_motors(self) -> dict[str, Motor]:
+        """Crank joint -> the :class:`Motor` that drives it, for every crank of the description
+        that names a motor section, in the order of the chain (``Linkage.motors``)."""
+        return {joint: self.motors[section] for joint, section in self.linkage.motors}
 
     @property
     def lengths(self) -> tuple[float, ...]:
@@ -296,9 +354,9 @@ class Params:
 
 
 def _resolve_key(key: str, values: Mapping[str, Any] = {}) -> str:
-    if key in _ALL_KEYS or (key.split(".", 1)[0] in _OPEN and "." in key):
+    if key in _ALL_KEYS or (key.split(".", 1)[0] in _OPEN and "." in key) or _motor_rule(key):
         return key
-    known = list(_ALL_KEYS) + [k for k in values if k.split(".", 1)[0] in _OPEN]
+    known = list(_ALL_KEYS) + [k for k in values if k.split(".", 1)[0] in _OPEN or _motor_rule(k)]
     matches = [k for k in known if k.split(".", 1)[1] == key]
     if len(matches) == 1:
         return matches[0]
@@ -306,7 +364,7 @@ def _resolve_key(key: str, values: Mapping[str, Any] = {}) -> str:
         raise ParameterError(f"parameter name {key!r} is ambiguous: use one of {matches}")
     raise ParameterError(
         f"unknown parameter {key!r}: allowed are the dotted keys of data/wang2011.toml "
-        f"(for example 'geometry.L1', 'motor1.m0', 'assumptions.crank_speed_rpm')"
+        f"(for example 'geometry.width', 'assumptions.crank_speed_rpm', or an entry of a [motor<k>] section)"
     )
 
 
@@ -341,22 +399,26 @@ def _build(values: Mapping[str, Any], meta: Mapping[str, Mapping[str, Any]]) -> 
             rule, unit = _SCHEMA[key]
             raise ParameterError(f"{key} is missing: it must be {_describe(rule, unit)}")
         checked[key] = _check(key, values[key])
-    for key in _OPTIONAL:
-        if key in values:
-            checked[key] = _check(key, values[key])
     for key in values:
-        if key.split(".", 1)[0] in _OPEN:
+        if key.split(".", 1)[0] in _OPEN or _motor_rule(key):
             checked[key] = _check(key, values[key])
+    sections = sorted({k.split(".", 1)[0] for k in checked if _MOTOR_SECTION.fullmatch(k.split(".", 1)[0])},
+                      key=lambda sec: int(_MOTOR_SECTION.fullmatch(sec).group(1)))
+    for sec in sections:
+        number = _MOTOR_SECTION.fullmatch(sec).group(1)
+        for key in [f"{sec}.{k}" for k in _MOTOR_KEYS] + [f"assumptions.shaft_diameter_{number}"]:
+            if key not in checked:
+                raise ParameterError(f"{key} is missing: it must be {_describe(*_motor_rule(key))}")
     if "linkage" not in values:
         raise ParameterError("the [linkage] section is missing: it describes the links, joints and drives")
 
     a = {k.split(".", 1)[1]: v for k, v in checked.items() if k.startswith("assumptions.")}
 
-    def motor(i: int) -> Motor:
-        kw = {k.split(".", 1)[1]: v for k, v in checked.items() if k.startswith(f"motor{i}.")}
+    def motor(sec: str) -> Motor:
+        kw = {k.split(".", 1)[1]: v for k, v in checked.items() if k.startswith(f"{sec}.")}
         return Motor(
             **kw,
-            shaft_diameter=a[f"shaft_diameter_{i}"],
+            shaft_diameter=a[f"shaft_diameter_{_MOTOR_SECTION.fullmatch(sec).group(1)}"],
             shaft_E=a["shaft_E"],
             shaft_G=a["shaft_G"],
             shaft_rho=a["shaft_rho"],
@@ -389,11 +451,11 @@ def _build(values: Mapping[str, Any], meta: Mapping[str, Mapping[str, Any]]) -> 
         values["linkage"], resolve,
         Section(checked["geometry.width"], checked["geometry.thickness"], a["bending_depth"]),
         Material(checked["material.rho"], checked["material.E"]),
-        motors=("motor1", "motor2"),
+        motors=tuple(sections),
     )
     checked["linkage"] = values["linkage"]
-    return Params(**top, linkage=linkage, motor1=motor(1), motor2=motor(2), values=checked, meta=dict(meta),
-                  references=frozenset(used))
+    return Params(**top, linkage=linkage, motors=Motors({sec: motor(sec) for sec in sections}), values=checked,
+                  meta=dict(meta), references=frozenset(used))
 
 
 def load_params(

@@ -21,7 +21,7 @@ period map (:class:`PeriodMap`) is one callable::
 returning the state after one period and, if ``jacobian`` is true, the monodromy matrix, or
 ``None`` where the integrator gives no tangent (then :func:`monodromy` takes finite
 differences).  :func:`newmark_map` builds one from a family of second-order systems of the
-protocol of :mod:`fivebar.newmark` (:class:`~fivebar.newmark.SecondOrderSystem` integrated by
+protocol of :mod:`fivebar.systems` (:class:`~fivebar.systems.SecondOrderSystem` integrated by
 :func:`~fivebar.newmark.integrate`), with the monodromy matrix from the integrator's step
 tangents.  The state is :math:`\mathbf x = (\mathbf u, \dot{\mathbf u})` at the start of the
 period; the alpha schemes carry an algorithmic acceleration as well, which is started, as
@@ -48,8 +48,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import ComputationError, InputError
-from .newmark import (GENERIC_SCHEME, NewtonConvergenceError, PeriodicStepData, Scheme, SecondOrderSystem,
-                      _blas_threads, integrate)
+from .newmark import NewtonConvergenceError, _blas_threads, integrate
+from .schemes import GENERIC_SCHEME, Scheme
+from .systems import PeriodicStepData, SecondOrderSystem
 
 __all__ = [
     "PeriodMap",
@@ -103,7 +104,7 @@ class PeriodicProblem:
         the system when the system is linear or time-varying, so that the compiled loop
         serves; ``None`` keeps the system's callbacks.
     scheme : Scheme, optional
-        Time integrator (default :class:`~fivebar.newmark.Newmark`, average acceleration).
+        Time integrator (default :class:`~fivebar.schemes.Newmark`, average acceleration).
     options : dict
         Further keyword arguments of :func:`~fivebar.newmark.integrate` (``rtol``,
         ``max_iter``, ``newton`` ...).

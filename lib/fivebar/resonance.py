@@ -208,7 +208,7 @@ def _modal_data(params: Params, n_modes: int, steps: int, motors: bool) -> tuple
 
     dyn = LinkageDynamics(params, None, steps, motors, nonlinear=False)
     B = modal_basis(dyn, n_modes)
-    h = np.diag(B.kinematic_stiffness.mean(axis=0)) / params.crank_speed**2
+    h = np.diag(B.kinematic_stiffness.mean(axis=0)) / params.crank_speed_rad_s**2
     return B.omega, h
 
 
@@ -259,14 +259,14 @@ def effective_frequencies(
     """
     p = params if crank_speed_rpm is None else params.replace(crank_speed_rpm=crank_speed_rpm)
     w, h = _data(p, n_modes, steps, motors)
-    w2 = w.mean(axis=0) ** 2 + h * p.crank_speed**2
+    w2 = w.mean(axis=0) ** 2 + h * p.crank_speed_rad_s**2
     return np.sqrt(np.where(w2 > 0, w2, np.nan))
 
 
-def _linkage_excitations(params: Params, crank_speed_rpm: float | None, include_motors: bool,
+def _linkage_excitations(params: Params, crank_speed_rpm: float | None, motor_fields: bool,
                          supply: str) -> dict[str, float]:
     df = excitation_frequencies(params, crank_speed_rpm, supply)
-    if not include_motors:
+    if not motor_fields:
         df = df[df["drives linkage"]]
     df = df.dropna(subset=["frequency (rad/s)"])
     out: dict[str, float] = {}
@@ -295,7 +295,7 @@ def resonance_table(
     n_modes: int = 4,
     tolerance: float = 0.03,
     harmonics: int | None = None,
-    include_motors: bool = False,
+    motor_fields: bool = False,
     supply: str = "crank",
     frequencies: str = "mean",
     **kwargs,
@@ -305,7 +305,7 @@ def resonance_table(
     Natural frequencies: the means (3.3) of the ``n_modes`` lowest instantaneous frequencies of
     the linkage subsystem (:func:`linkage_frequencies`).  Excitations: the frequencies of
     :func:`fivebar.excitation.excitation_frequencies` that drive the linkage (equal ones merged,
-    e.g. "nu1=nu2=nu3"); ``include_motors`` adds the motors' field frequencies (which drive only
+    e.g. "nu1=nu2=nu3"); ``motor_fields`` adds the motors' field frequencies (which drive only
     the decoupled rotors).  ``harmonics`` defaults to ``params.fourier_terms``.
     ``frequencies="effective"`` uses :func:`effective_frequencies` (spin softening) instead of
     the paper's means.  Other keyword arguments go to :func:`classify`.  ``params`` may be a
@@ -321,7 +321,7 @@ def resonance_table(
                                  "(past its spin-softening limit): no effective frequency")
     else:
         raise ResonanceError(f"frequencies = {frequencies!r} is not allowed: use 'mean' or 'effective'")
-    exc = _linkage_excitations(p, None, include_motors, supply)
+    exc = _linkage_excitations(p, None, motor_fields, supply)
     m = p.fourier_terms if harmonics is None else harmonics
     return classify(w, exc, harmonics=m, tolerance=tolerance, **kwargs)
 

@@ -37,7 +37,8 @@ from .cache import memoised
 from .dynamics import LinkageDynamics
 from .elements import shape_functions
 from .errors import ComputationError, InputError, array, number
-from .newmark import Scheme, integrate
+from .newmark import integrate
+from .schemes import Scheme
 from .params import Params
 from .setup import Setup
 
@@ -103,7 +104,7 @@ class Response:
     @property
     def crank_angle_deg(self) -> NDArray:
         """Angle of crank AB (deg) from its initial angle, at the samples."""
-        return np.degrees(self.t * self.dynamics.params.crank_speed)
+        return np.degrees(self.t * self.dynamics.params.crank_speed_rad_s)
 
     def period(self, k: int) -> Response:
         """The samples of period ``k`` (0 first), S + 1 of them from ``k T`` to ``(k + 1) T``,

@@ -21,7 +21,7 @@ from fractions import Fraction
 
 from .cache import STORE
 from .errors import InputError, InputTypeError, flag, memory, number
-from .newmark import GeneralizedAlpha, Newmark, Scheme
+from .schemes import GeneralizedAlpha, Newmark, Scheme
 from .params import Params
 
 __all__ = ["PAPER_SCHEME", "Setup", "as_setup", "default_scheme", "drive_period", "min_steps_per_period",
@@ -48,7 +48,7 @@ def scheme_name(scheme: Scheme) -> str:
             return "the paper's average-acceleration rule (Newmark gamma = 1/2, beta = 1/4)"
         return f"Newmark (gamma = {scheme.gamma:g}, beta = {scheme.beta:g})"
     if isinstance(scheme, GeneralizedAlpha):
-        return f"generalised-alpha (rho_inf = {scheme.rho_inf:g})"
+        return f"generalised-alpha (rho_inf = {scheme.rho_infinity:g})"
     return type(scheme).__name__
 
 
@@ -154,7 +154,7 @@ class Setup:
         scheme = default_scheme(p) if self.scheme is None else self.scheme
         if not isinstance(scheme, Scheme):
             raise InputTypeError(
-                f"scheme must be a fivebar.newmark.Scheme (Newmark, HHT, GeneralizedAlpha), got {type(scheme).__name__}"
+                f"scheme must be a fivebar.schemes.Scheme (Newmark, HHT, GeneralizedAlpha), got {type(scheme).__name__}"
             )
         object.__setattr__(self, "crank_speed_rpm", rpm)
         object.__setattr__(self, "steps_per_period", S)

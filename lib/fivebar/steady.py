@@ -51,7 +51,8 @@ from .cache import STORE
 from .errors import FivebarError, InputError, array, flag, number
 from .dynamics import LinkageDynamics
 from .eigen import frozen_modes
-from .newmark import NewtonConvergenceError, Scheme, integrate
+from .newmark import NewtonConvergenceError, integrate
+from .schemes import Scheme
 from .params import Params
 from .response import Response
 from .setup import Setup, as_setup, default_scheme, min_steps_per_period, scheme_name

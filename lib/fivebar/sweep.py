@@ -44,7 +44,7 @@ from tqdm import tqdm
 
 from .cache import STORE
 from .errors import FivebarError, number
-from .newmark import Scheme
+from .schemes import Scheme
 from .params import Params
 from .setup import Setup, as_setup
 from .response import quasi_static

@@ -1,0 +1,125 @@
+"""One idea per module (issue 17, point 5): every module imports alone, the library's
+module-level imports form no cycle, and the model's code names no part of the paper's five-bar
+(its links L1..L5, its motor sections motor1, motor2): those live in the data files
+(``fivebar/data/*.toml``) and the chapters' text.
+
+References: the import system itself (a fresh import of each module, the package's modules
+removed from ``sys.modules`` before each) and the modules' syntax trees.
+"""
+
+from __future__ import annotations
+
+import ast
+import io
+import re
+import subprocess
+import sys
+import tokenize
+from pathlib import Path
+
+import fivebar
+
+LIB = Path(fivebar.__file__).parent
+MODULES = sorted(p.stem for p in LIB.glob("*.py") if p.stem != "__init__")
+
+#: The model (parameters, description, kinematics, rigid and elastic model, the equation of
+#: motion, modes, excitation, the response) and the control model's free-rotor linkage: the code
+#: that must work from any description.
+MODEL = ("params", "linkage", "setup", "kinematics", "rigid", "elements", "electromagnetics", "assembly",
+         "nonlinear", "dynamics", "modal", "excitation", "response", "free_rotors")
+#: A name of the paper's five-bar in code: a link L1..L5 or a motor section motor1, motor2.
+FIVE_BAR = re.compile(r"\b(L[1-5]|motor[12])\b")
+
+
+def test_every_module_imports_alone():
+    """Each module imported first, in a process where no other module of the package is loaded
+    yet (third-party modules stay cached, so one process serves): an import cycle fails here."""
+    code = (
+        "import importlib, sys\n"
+        f"mods = {MODULES!r}\n"
+        "bad = []\n"
+        "for m in mods:\n"
+        "    for k in [k for k in sys.modules if k == 'fivebar' or k.startswith('fivebar.')]:\n"
+        "        del sys.modules[k]\n"
+        "    try:\n"
+        "        importlib.import_module('fivebar.' + m)\n"
+        "    except Exception as exc:\n"
+        "        bad.append((m, repr(exc)))\n"
+        "print(bad); assert not bad, bad\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+
+
+def _module_imports(name: str) -> set[str]:
+    """The package's modules that ``name`` imports at module level (not inside functions)."""
+    tree = ast.parse((LIB / f"{name}.py").read_text())
+    out: set[str] = set()
+    for node in tree.body:
+        nodes = [node]
+        if isinstance(node, ast.Try):  # optional imports
+            nodes = node.body + [h for x in node.handlers for h in x.body]
+        for n in nodes:
+            if isinstance(n, ast.ImportFrom) and n.level == 1:
+                out |= {n.module.split(".")[0]} if n.module else {a.name for a in n.names}
+    return out & set(MODULES)
+
+
+def _cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(m: str) -> list[str] | None:
+        state[m] = 1
+        stack.append(m)
+        for k in sorted(graph[m]):
+            if state.get(k) == 1:
+                return stack[stack.index(k):] + [k]
+            if k not in state and (found := visit(k)):
+                return found
+        stack.pop()
+        state[m] = 2
+        return None
+
+    for m in sorted(graph):
+        if m not in state and (found := visit(m)):
+            return found
+    return None
+
+
+def test_module_level_imports_form_no_cycle():
+    graph = {m: _module_imports(m) for m in MODULES}
+    assert graph["newmark"] >= {"schemes", "systems"}  # the integrator uses the two halves it was split from
+    assert _cycle(graph) is None, " -> ".join(_cycle(graph))
+    assert _cycle({"a": {"b"}, "b": {"a"}}) == ["a", "b", "a"]  # the check finds a planted cycle
+
+
+def _code_names(source: str) -> list[tuple[int, str]]:
+    """Names and string literals of the code (docstrings and comments left out) that name a
+    part of the paper's five-bar."""
+    tree = ast.parse(source)
+    doc: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                doc |= set(range(body[0].lineno, body[0].end_lineno + 1))
+        # attribute docstrings (a string statement after an assignment)
+        if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant) and isinstance(node.value.value, str):
+            doc |= set(range(node.lineno, node.end_lineno + 1))
+    hits = []
+    kinds = {tokenize.NAME, tokenize.STRING} | {getattr(tokenize, "FSTRING_MIDDLE", tokenize.STRING)}
+    for tok in tokenize.generate_tokens(io.StringIO(source).readline):
+        if tok.type in kinds and tok.start[0] not in doc and FIVE_BAR.search(tok.string):
+            hits.append((tok.start[0], tok.string))
+    return hits
+
+
+def test_the_model_names_no_part_of_the_five_bar():
+    found = {m: _code_names((LIB / f"{m}.py").read_text()) for m in MODEL}
+    assert not any(found.values()), {m: h for m, h in found.items() if h}
+    # the data file names them (the description says which links and motors there are)
+    assert "motor1" in (LIB / "data" / "wang2011.toml").read_text()
+    # and the check sees a planted name, in code but not in a docstring or comment
+    planted = '"""Doc of L2 and motor1."""\n# L3\nJ = params.motors["motor1"]\nlink = "L2"\n'
+    assert _code_names(planted) == [(3, '"motor1"'), (4, '"L2"')]
