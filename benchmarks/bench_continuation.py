@@ -10,7 +10,10 @@ JSON object (and writes it with ``--out``):
   <model>.steps                  arclength steps (scaled: the range 10-300 is 1) and the speed
                                  steps (r/min): min, median, max
   <model>.newton                 corrector iterations: total, mean per point, histogram
-  <model>.stats                  map applications (periods), monodromy matrices, rejected steps
+  <model>.stats                  map applications (periods), monodromy matrices, rejected steps,
+                                 and "by purpose": the periods, monodromies and corrector
+                                 iterations of the start, the accepted steps' corrector, the
+                                 rejected steps, the multipliers at the points and the locating
   <model>.time_s, .ms_per_point  wall time (the state scaling's linear scan included) and per point
   <model>.bifurcations           kind, speed, bracket, critical multiplier, four largest multipliers
   <model>.after                  at a speed just past the first period doubling (if any):

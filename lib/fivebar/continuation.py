@@ -111,6 +111,8 @@ __all__ = [
 Array = NDArray[np.float64]
 
 _KINDS = ("fold", "period doubling", "Neimark-Sacker")
+# what the map applications of a continuation are spent on (``Branch.stats["by purpose"]``)
+_PURPOSES = ("start", "corrector", "rejected", "multipliers", "locate")
 
 
 class ContinuationError(ComputationError):
@@ -236,8 +238,12 @@ class Branch:
     scale, p_scale
         The scaling of the arclength.
     stats : dict
-        Counts: map applications (``periods``), monodromy matrices, rejected steps,
-        Newton iterations.
+        Counts: map applications (``periods``, each monodromy matrix's period among them),
+        monodromy matrices, rejected steps, Newton iterations; and ``"by purpose"``: the
+        periods, monodromies and corrector iterations of ``"start"`` (the shooting of the first
+        orbit and its Jacobian), ``"corrector"`` (the accepted steps' corrections),
+        ``"rejected"`` (those of the steps rejected), ``"multipliers"`` (the Jacobian at each
+        accepted point: its tangent and multipliers) and ``"locate"`` (the bifurcations').
     stop : str
         Why it stopped.
     discarded : list of Bifurcation
@@ -313,22 +319,38 @@ class _Problem:
 
     def __init__(self, period_map, D, ps, dp):
         self.f, self.D, self.ps, self.dp = period_map, D, ps, dp
-        self.stats = {"periods": 0, "monodromies": 0, "newton": 0, "rejected": 0}
+        self.stats = {"periods": 0, "monodromies": 0, "newton": 0, "rejected": 0,
+                      "by purpose": {k: {"periods": 0, "monodromies": 0, "newton": 0} for k in _PURPOSES}}
+        self.purpose = "start"
+
+    def count(self, periods: int = 0, monodromies: int = 0, newton: int = 0) -> None:
+        """Charge map applications (monodromy matrices among them) and corrector iterations to
+        the present purpose."""
+        c = self.stats["by purpose"][self.purpose]
+        for k, v in (("periods", periods), ("monodromies", monodromies), ("newton", newton)):
+            self.stats[k] += v
+            c[k] += v
+
+    def reject(self, before: dict) -> None:
+        """Move what the corrector spent since ``before`` (a copy of its count) to ``rejected``."""
+        c, r = self.stats["by purpose"]["corrector"], self.stats["by purpose"]["rejected"]
+        for k in r:
+            r[k] += c[k] - before[k]
+            c[k] = before[k]
 
     def G(self, y):
         x, p = self.D * y[:-1], self.ps * y[-1]
-        self.stats["periods"] += 1
+        self.count(1)
         return (self.f(x, p, False)[0] - x) / self.D
 
     def jac(self, y):
         """Scaled [Phi - I, G_p] at y, the scaled G there, and Phi (unscaled)."""
         x, p = self.D * y[:-1], self.ps * y[-1]
         xT, Phi = monodromy(self.f, x, p, self.D)
-        self.stats["periods"] += 1
-        self.stats["monodromies"] += 1
+        self.count(1, 1)
         g = (xT - x) / self.D
         h = self.dp * max(1.0, abs(y[-1]))
-        self.stats["periods"] += 1
+        self.count(1)
         gp = ((self.f(x, p + self.ps * h, False)[0] - x) / self.D - g) / h
         A = (Phi / self.D[:, None]) * self.D[None, :] - np.eye(x.size)
         return np.hstack([A, gp[:, None]]), g, Phi
@@ -457,16 +479,17 @@ def continuation(
         orb0 = shoot(period_map, x0, p0, tol=tol)
         big = float(np.abs(orb0.x).max())
         D = np.full(x0.size, big if big > 0 else 1.0)
-        x0 = orb0.x
     else:
         D = np.asarray(scale, float)
         if D.shape != x0.shape or not np.all(D > 0):
             raise InputError(f"scale has shape {D.shape} or non-positive entries: give ({x0.size},) positive values")
-        x0 = shoot(period_map, x0, p0, tol=tol, scale=D).x
+        orb0 = shoot(period_map, x0, p0, tol=tol, scale=D)
+    x0 = orb0.x
     span = abs(p_end - p0)
     if p_bounds is None:
         p_bounds = (min(p0, p_end) - span * (p0 < p_end), max(p0, p_end) + span * (p0 > p_end))
     prob = _Problem(period_map, D, float(p_scale), dp)
+    prob.count(orb0.periods, orb0.iterations + 1)  # the shooting of the first orbit
     sgn = 1.0 if p_end > p0 else -1.0
 
     y = np.concatenate([x0 / D, [p0 / p_scale]])
@@ -485,6 +508,8 @@ def continuation(
     while len(pts) < max_points:
         yk, tk = y, t
         while True:
+            prob.purpose = "corrector"
+            before = dict(prob.stats["by purpose"]["corrector"])
             target = None
             yp = yk + h * tk
             if (yp[-1] * p_scale - p_end) * sgn > 0 and (yk[-1] * p_scale - p_end) * sgn < 0 and tk[-1] * sgn > 0:
@@ -496,6 +521,7 @@ def continuation(
                     break
                 res = None  # the corrector went far from the predictor: the curve turns too fast
             prob.stats["rejected"] += 1
+            prob.reject(before)
             h *= 0.5
             if h < ds_min:
                 err = ContinuationError(
@@ -505,6 +531,7 @@ def continuation(
                 err.branch = Branch(pts, bifs, periods, D, float(p_scale), prob.stats, str(err), discarded)
                 raise err
         y1, it = res
+        prob.purpose = "multipliers"
         J1, g1, Phi1 = prob.jac(y1)
         t1 = _tangent(J1, tk)
         mu1 = floquet_multipliers(Phi1)
@@ -513,6 +540,7 @@ def continuation(
         prev = pts[-1]
         pts.append(q)
         Jk, Jc = Jc, J1  # the Jacobians at the last point (the locator's chord) and at the new one
+        prob.purpose = "locate"
         for bif, located in _detect(prob, prev, q, len(pts) - 2, yk, tk, step, locate, locate_tol, periods, tol,
                                     max_newton, Jk):
             (discarded if located and not bif.distance() <= critical_tol else bifs).append(bif)
@@ -601,7 +629,7 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
                 return None
             current = True
         y, g = y + lam * dy, gt
-        prob.stats["newton"] += 1
+        prob.count(newton=1)
         if lam == 1.0 and (np.linalg.norm(g) <= floor or np.linalg.norm(dy) <= tol * max(1.0, np.linalg.norm(y))):
             return y, it
     return None
