@@ -13,7 +13,10 @@ built from the file's ``[simulation] scheme`` and ``rho_infinity`` (errata E26).
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
@@ -23,7 +26,7 @@ from .errors import InputError, InputTypeError, flag, memory, number
 from .newmark import GeneralizedAlpha, Newmark, Scheme
 from .params import Params
 
-__all__ = ["PAPER_SCHEME", "Setup", "as_setup", "default_scheme", "drive_period", "min_steps_per_period",
+__all__ = ["PAPER_SCHEME", "SETUP_FIELDS", "Setup", "analysis", "as_setup", "default_scheme", "drive_period", "min_steps_per_period",
            "scheme_name"]
 
 #: The paper's rule (section 5, read as gamma = 1/2, beta = 1/4: errata E2): the
@@ -181,35 +184,58 @@ class Setup:
         if "dyn" not in self._cache:
             from .dynamics import LinkageDynamics
 
-            n = _estimated_dofs(self.elements_per_link, self.motors)
-            S = self.steps_per_period
-            # the step matrices M, C, K of every step and the step tangent's LU cache
-            memory(4.0 * S * n * n * 8,
-                   f"the step matrices of steps_per_period = {S} steps with about {n} DOFs "
-                   f"(elements_per_link = {self.elements_per_link or (1, 2, 2, 1)})",
-                   "give a smaller steps_per_period or a coarser elements_per_link")
-
-            self._cache["dyn"] = LinkageDynamics(
-                self.params, self.crank_speed_rpm, self.steps_per_period, self.motors, self.nonlinear,
-                self.elements_per_link,
-            )
+            self._cache["dyn"] = LinkageDynamics(self)
         return self._cache["dyn"]
 
+    def _check_memory(self) -> None:
+        """Refuse a set-up whose sampled matrices would not fit in memory (a MemoryError of
+        :func:`fivebar.errors.memory`, naming S and the mesh)."""
+        n = _estimated_dofs(self.elements_per_link, self.motors)
+        S = self.steps_per_period
+        # the step matrices M, C, K of every step and the step tangent's LU cache
+        memory(4.0 * S * n * n * 8,
+               f"the step matrices of steps_per_period = {S} steps with about {n} DOFs "
+               f"(elements_per_link = {self.elements_per_link or (1, 2, 2, 1)})",
+               "give a smaller steps_per_period or a coarser elements_per_link")
 
-def as_setup(setup: Setup | Params, argument: str = "setup", **overrides: Any) -> Setup:
-    """A :class:`Setup` from a Setup or a Params, with keyword overrides (``None`` = keep).
 
-    ``as_setup(params, steps_per_period=400)``; the keywords are the fields of :class:`Setup`;
-    those given as ``None`` are ignored, so the functions that take both a set-up and the old
-    keyword arguments can pass theirs through unchanged.  ``argument`` is the caller's name of
-    ``setup`` (for the message of a wrong type).
-    """
-    given = {k: v for k, v in overrides.items() if v is not None}
+#: the fields of a problem, which no analysis takes as a keyword of its own
+SETUP_FIELDS = tuple(f.name for f in fields(Setup) if f.init and f.name != "params")
+
+
+def as_setup(setup: Setup | Params, argument: str = "setup") -> Setup:
+    """The problem as a :class:`Setup`: a Setup as it is, a Params as ``Setup(params)`` (every
+    field the parameter file's); anything else raises :class:`~fivebar.errors.InputTypeError`
+    naming ``argument`` (the caller's name of ``setup``)."""
     if isinstance(setup, Setup):
-        return setup.replace(**given) if given else setup
+        return setup
     if isinstance(setup, Params):
-        return Setup(setup, **given)
+        return Setup(setup)
     raise InputTypeError(
         f"{argument} = {setup!r} ({type(setup).__name__}) is not allowed: give a fivebar.Setup or a "
         "fivebar.Params (fivebar.load_params() or fivebar.Setup(params, ...))"
     )
+
+
+def analysis(fn: Callable) -> Callable:
+    """Mark ``fn`` as an analysis of a problem (its first argument, a Setup or a Params): a
+    field of :class:`Setup` passed to it as a keyword (``steady_state(params,
+    steps_per_period=400)``) raises :class:`~fivebar.errors.InputError` naming the keyword
+    and saying where it belongs, ``Setup(params, ...)`` or ``setup.replace(...)``; the set-up
+    says it, once."""
+    own = set(inspect.signature(fn).parameters)
+    refused = [name for name in SETUP_FIELDS if name not in own]
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        bad = [k for k in kwargs if k in refused]
+        if bad:
+            given = ", ".join(f"{k}={kwargs[k]!r}" for k in bad)
+            raise InputError(
+                f"{fn.__name__}(..., {given}) is not allowed: {', '.join(bad)} "
+                f"{'is a field' if len(bad) == 1 else 'are fields'} of the problem, not an option of "
+                f"{fn.__name__}; give {'it' if len(bad) == 1 else 'them'} in the set-up: "
+                f"{fn.__name__}(fivebar.Setup(params, {given}), ...) or "
+                f"{fn.__name__}(setup.replace({given}), ...)")
+        return fn(*args, **kwargs)
+    return wrapper
