@@ -13,6 +13,7 @@ from fivebar import datasets
 from fivebar.kinematics import crank_laws
 from fivebar.resonance import linkage_frequencies
 from fivebar.sweep import sweep_point
+from fivebar.setup import Setup
 
 ROOT = Path(__file__).resolve().parents[1]
 CHEAP = ["figure6_curves", "natural_frequencies", "resonance_speeds"]
@@ -54,7 +55,7 @@ def test_figure6_curves_periodic_and_converged(written, params):
     (an independent discretisation) gives the same curves to within 1 % of their range."""
     _, df = datasets.read_dataset(written[0] / "figure6_curves.csv")
     assert df["crank angle (deg)"].iloc[0] == 0.0 and df["crank angle (deg)"].iloc[-1] == pytest.approx(360.0)
-    coarse = fivebar.steady_state(params, steps_per_period=datasets.FIGURE6_STEPS // 2)
+    coarse = fivebar.steady_state(Setup(params, steps_per_period=datasets.FIGURE6_STEPS // 2))
     for link in ("L2", "L3"):
         for direction in ("transverse", "longitudinal", "chord"):
             y = df[f"{link} {direction} (um)"].to_numpy()
