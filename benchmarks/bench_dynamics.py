@@ -257,7 +257,7 @@ def main() -> None:
     result: dict = {
         "benchmark": "bench_dynamics",
         "model": {"crank_speed_rpm": P.crank_speed_rpm, "steps_per_period": P.steps_per_period,
-                  "dofs": LinkageDynamics(Setup(P, steps_per_period=2)).n},
+                  "dofs": LinkageDynamics(Setup(P, steps_per_period=24)).n},
         "machine": {"python": sys.version.split()[0], "numpy": np.__version__, "scipy": scipy.__version__,
                     "platform": platform.platform(), "cpus": os.cpu_count()},
         "repeats": R,

@@ -98,11 +98,11 @@ def test_steady_state_explain_names_what_a_march_from_an_unstable_orbit_does():
     # about 65): a linear map with a multiplier outside the unit circle grows as mu^k, so the march
     # from the orbit diverges (what explain must name); without explain nothing more is computed
     p = fivebar.load_params()
-    kw = dict(steps_per_period=100, scheme=fivebar.PAPER_SCHEME, nonlinear=False)
-    plain = steady_state(p, **kw)
+    paper = Setup(p, steps_per_period=100, scheme=fivebar.PAPER_SCHEME, nonlinear=False)
+    plain = steady_state(paper)
     assert plain.stable is False and plain.explained is None
     assert "explain=True" in plain.note
-    res = steady_state(p, explain=True, **kw)
+    res = steady_state(paper, explain=True)
     assert res.explained.kind == "diverges" and res.note.endswith(res.explained.text)
     assert "unstable" in res.explained.text and "60 r/min" in res.explained.text
     # a stable orbit: nothing to explain, the note as without
