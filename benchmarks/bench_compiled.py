@@ -109,9 +109,9 @@ def steady_costs(repeats: int) -> dict:
             if not _set_kernels(path == "compiled"):
                 continue
             try:
-                steady_state(Setup(p, crank_speed_rpm=rpm, nonlinear=nonlinear), **kw)
+                steady_state(Setup(p, crank_speed_rpm=rpm, nonlinear=nonlinear, **kw))
                 row[path] = 1e3 * _median_time(
-                    lambda: steady_state(Setup(p, crank_speed_rpm=rpm, nonlinear=nonlinear), **kw),
+                    lambda: steady_state(Setup(p, crank_speed_rpm=rpm, nonlinear=nonlinear, **kw)),
                     max(3, repeats // 2))
             except Exception as exc:  # noqa: BLE001 - reported, not hidden
                 row[path + "_error"] = f"{type(exc).__name__}: {str(exc)[:200]}"

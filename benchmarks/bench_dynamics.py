@@ -188,9 +188,9 @@ def bench_to_steady(P, R: int, radau_runs: int) -> dict:
         "fivebar shooting, GeneralizedAlpha(0.8), S=50":
             lambda: steady_state(Setup(P, steps_per_period=50, scheme=GeneralizedAlpha(0.8))),
         "fivebar march from rest, GeneralizedAlpha(0.8), S=50, tol=1e-3":
-            lambda: march(Setup(P, steps_per_period=50), scheme=GeneralizedAlpha(0.8), tol=1e-3),
+            lambda: march(Setup(P, steps_per_period=50, scheme=GeneralizedAlpha(0.8)), tol=1e-3),
         f"fivebar march from rest, GeneralizedAlpha(0.8), S={P.steps_per_period}, tol=1e-3":
-            lambda: march(P, scheme=GeneralizedAlpha(0.8), tol=1e-3),
+            lambda: march(Setup(P, scheme=GeneralizedAlpha(0.8)), tol=1e-3),
     }
     for name, fn in cases.items():
         t, ss = timed(fn, R)

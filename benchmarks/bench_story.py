@@ -99,7 +99,7 @@ def step_costs(repeats):
     for nl in (False, True):
         s = Setup(load_params(), motors=False, nonlinear=nl)
         dyn = s.dynamics()
-        orb = shooting(dyn.setup.replace(scheme=s.scheme))
+        orb = shooting(s)
 
         def run():
             integrate(dyn, orb.u[0], orb.v[0], 0.0, dyn.dt, dyn.steps_per_period, s.scheme, step_data=dyn.step_data)
@@ -116,14 +116,14 @@ def steady_costs(repeats):
     out = {}
     for rpm in (60.0, 300.0, 600.0):
         for nl in (False, True):
-            kw = dict(motors=False, nonlinear=nl)
-            ref = steady_state(Setup(p, crank_speed_rpm=rpm, steps_per_period=3200), **kw)
-            first, r = _first(lambda: steady_state(Setup(p, crank_speed_rpm=rpm), tol=0.01, **kw), repeats)
+            s = Setup(p, crank_speed_rpm=rpm, motors=False, nonlinear=nl)
+            ref = steady_state(s.replace(steps_per_period=3200))
+            first, r = _first(lambda: steady_state(s, tol=0.01), repeats)
             speeds = iter(rpm * (1.0 + 0.01 * k) for k in range(1, repeats + 1))
-            new, _ = _t(lambda: steady_state(Setup(p, crank_speed_rpm=next(speeds)), tol=0.01, **kw), repeats)
-            dfirst, d = _first(lambda: steady_state(Setup(p, crank_speed_rpm=rpm), **kw), repeats)
-            drep, _ = _t(lambda: steady_state(Setup(p, crank_speed_rpm=rpm), **kw), repeats)
-            mar, m = _t(lambda: steady_state(Setup(p, crank_speed_rpm=rpm), method="march", **kw))
+            new, _ = _t(lambda: steady_state(s.replace(crank_speed_rpm=next(speeds)), tol=0.01), repeats)
+            dfirst, d = _first(lambda: steady_state(s), repeats)
+            drep, _ = _t(lambda: steady_state(s), repeats)
+            mar, m = _t(lambda: steady_state(s, method="march"))
             out[f"{'nonlinear' if nl else 'linear'}_{rpm:g}rpm"] = {
                 "tol_first": 1e3 * first, "tol_new_speed": 1e3 * new, "tol_S": r.dynamics.steps_per_period,
                 "tol_estimate": r.accuracy["estimate"], "tol_true_error": _curve_error(r, ref),
@@ -256,19 +256,19 @@ def scaling(quick, repeats):
     from fivebar import load_params, steady_state
 
     p = load_params()
-    kw = dict(crank_speed_rpm=300, motors=False)
+    base = Setup(p, crank_speed_rpm=300, motors=False)
     out = []
     for mesh in ((1, 2, 2, 1), (2, 4, 4, 2), (4, 8, 8, 4)):
         for S in ((100, 800) if quick else (100, 800, 1600)):
             try:
-                dt, r = _first(lambda: steady_state(Setup(p, steps_per_period=S, elements_per_link=mesh), **kw), repeats)
+                dt, r = _first(lambda: steady_state(base.replace(steps_per_period=S, elements_per_link=mesh)), repeats)
                 out.append({"mesh": mesh, "S": S, "n": r.dynamics.n, "ms": 1e3 * dt, "periods": r.periods})
             except Exception as exc:  # noqa: BLE001 - reported
                 out.append({"mesh": mesh, "S": S, "error": f"{type(exc).__name__}: {str(exc)[:200]}"})
-        dt, r = _first(lambda: steady_state(Setup(p, elements_per_link=mesh), tol=0.01, **kw), repeats)
+        dt, r = _first(lambda: steady_state(base.replace(elements_per_link=mesh), tol=0.01), repeats)
         speeds = iter(300.0 * (1.0 + 0.01 * k) for k in range(1, 4))
-        dn, _ = _t(lambda: steady_state(Setup(p, elements_per_link=mesh, crank_speed_rpm=next(speeds),
-                                              motors=False), tol=0.01), 3)
+        dn, _ = _t(lambda: steady_state(base.replace(elements_per_link=mesh, crank_speed_rpm=next(speeds)),
+                                        tol=0.01), 3)
         out.append({"mesh": mesh, "S": "tol=0.01", "chosen_S": r.dynamics.steps_per_period, "n": r.dynamics.n,
                     "ms": 1e3 * dt, "new_speed_ms": 1e3 * dn})
     exps = {}

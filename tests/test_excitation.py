@@ -8,7 +8,6 @@ import pytest
 import fivebar
 from fivebar.dynamics import LinkageDynamics
 from fivebar.excitation import (
-from fivebar.setup import Setup
     ExcitationError,
     ModalBasis,
     excitation_frequencies,
@@ -17,6 +16,7 @@ from fivebar.setup import Setup
     modal_basis,
     modal_expansion,
 )
+from fivebar.setup import Setup
 
 
 @pytest.fixture(scope="module")

@@ -1,21 +1,24 @@
 """One linkage set-up: parameters, crank speed, S, motors, nonlinearity, mesh and scheme.
 
-Every analysis of the linkage (:func:`fivebar.steady.steady_state`, :func:`fivebar.sweep.speed_sweep`,
-the resonance tables, the multiple-scales start, the control simulation) takes a
-:class:`Setup` or a :class:`~fivebar.params.Params`; :func:`as_setup` turns the second into
-the first, so each default lives once: a field left ``None`` takes the parameter file's entry
+The problem object.  Every analysis of the linkage (:func:`fivebar.steady.steady_state`,
+:func:`fivebar.sweep.speed_sweep`, the resonance tables, the multiple scales, the control
+simulation, the continuation) takes a :class:`Setup` or a :class:`~fivebar.params.Params`
+(meaning ``Setup(params)``; :func:`as_setup` turns it into one) and only options of its own: a
+field of the set-up given to an analysis as a keyword is refused (:func:`analysis`), so each
+default lives once.  A field left ``None`` takes the parameter file's entry
 (``Setup(params).steps_per_period == params.steps_per_period``), and the time integrator is
 built from the file's ``[simulation] scheme`` and ``rho_infinity`` (errata E26).
+:class:`~fivebar.dynamics.LinkageDynamics` samples a set-up's equation of motion
+(``setup.dynamics()``, built once).
 
 >>> s = Setup(load_params(), crank_speed_rpm=300)
->>> s.replace(steps_per_period=1600).dynamics()
+>>> steady_state(s.replace(steps_per_period=1600))
 """
 
 from __future__ import annotations
 
 import functools
 import inspect
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
