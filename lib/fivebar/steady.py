@@ -714,7 +714,7 @@ def steady_state(
     if outside:
         warnings.warn(f"the steady state at {s.crank_speed_rpm:g} r/min is outside the model's validity: "
                       + "; ".join(outside) + " (SteadyState.validity has the checks)", ValidityWarning,
-                      stacklevel=2)
+                      stacklevel=3)  # (steady_state, its analysis wrapper, the caller)
     return res
 
 

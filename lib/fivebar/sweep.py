@@ -323,7 +323,7 @@ def _warn_invalid(df: pd.DataFrame) -> None:
         f"deflection past {DEFLECTION_LIMIT:g} of a link's length), from {bad['speed (r/min)'].min():g} r/min "
         f"(largest stress / yield {bad['stress / yield'].max():.3g}, deflection / length "
         f"{bad['deflection / length'].max():.3g}): see the columns 'valid', 'stress / yield' and "
-        "'deflection / length'", ValidityWarning, stacklevel=3)
+        "'deflection / length'", ValidityWarning, stacklevel=4)  # (speed_sweep and its analysis wrapper)
 
 
 def sweep_peaks(sweep: pd.DataFrame, column: str, prominence: float = 0.05) -> pd.DataFrame:
