@@ -374,7 +374,7 @@ def test_a_fresh_process_loads_the_compiled_loop_from_the_cache(tmp_path):
             shutil.copy(f, target)
     code = ("import json, numpy as np\n"
             "import fivebar.newmark as nm\n"
-            "from fivebar import load_params\n"
+            "from fivebar import Setup, load_params\n"
             "from fivebar.dynamics import LinkageDynamics\n"
             "from fivebar._jitcache import import_cached\n"
             "for nonlinear in (False, True):\n"
