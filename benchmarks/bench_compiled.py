@@ -8,7 +8,7 @@ Prints one JSON object (and writes it with ``--out``).  Sections:
                    GeneralizedAlpha(0.8); "compiled" is ``integrate`` as every caller gets it,
                    "python" the same call with the compiled kernels switched off
                    (``fivebar.newmark._USE_KERNELS = False``), the peer in the same process.
-  steady_state_ms  one whole ``steady_state(params, crank_speed_rpm=..., nonlinear=...)`` call
+  steady_state_ms  one whole ``steady_state(Setup(params, crank_speed_rpm=..., nonlinear=...))`` call
                    (model construction included) at 60, 300 and 600 r/min, compiled and python.
   import_s         ``import fivebar`` in a fresh interpreter (a subprocess; warm file cache).
   numba_s          the first ``integrate`` call of a fresh interpreter with an empty numba cache
@@ -38,6 +38,7 @@ import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
+from fivebar.setup import Setup  # noqa: E402
 
 
 def _median_time(fn, repeats: int) -> float:
@@ -67,9 +68,9 @@ def step_costs(repeats: int) -> dict:
     p = load_params()
     out: dict = {}
     for nonlinear in (False, True):
-        dyn = LinkageDynamics(p, nonlinear=nonlinear)
+        dyn = LinkageDynamics(Setup(p, nonlinear=nonlinear))
         for name, scheme in (("newmark", Newmark()), ("galpha0.8", GeneralizedAlpha(0.8))):
-            orbit = shooting(dyn, scheme=scheme)
+            orbit = shooting(dyn.setup.replace(scheme=scheme))
             u0, v0 = orbit.u[0], orbit.v[0]
             key = f"{'nonlinear' if nonlinear else 'linear'}_{name}"
             row = {}
@@ -78,11 +79,11 @@ def step_costs(repeats: int) -> dict:
                     continue
 
                 def run():
-                    integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, step_data=dyn.step_data,
+                    integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps_per_period, scheme, step_data=dyn.step_data,
                               store="all")
                 run()  # compile / fill the LU cache
-                row[path] = 1e6 * _median_time(run, repeats) / dyn.steps
-            res = integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, step_data=dyn.step_data)
+                row[path] = 1e6 * _median_time(run, repeats) / dyn.steps_per_period
+            res = integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps_per_period, scheme, step_data=dyn.step_data)
             row["newton_iterations_per_step"] = float(res.iterations.mean())
             if "python" in row and "compiled" in row:
                 row["speedup"] = row["python"] / row["compiled"]
@@ -97,7 +98,7 @@ def steady_costs(repeats: int) -> dict:
 
     p = load_params()
     out: dict = {}
-    # "default": steady_state(params, crank_speed_rpm=rpm, nonlinear=...) as it stands;
+    # "default": steady_state(Setup(params, crank_speed_rpm=rpm, nonlinear=...)) as it stands;
     # "motors_off_galpha": the setting of issue 10's table (motors off, GeneralizedAlpha(0.8))
     settings = {"default": {}, "motors_off_galpha": dict(motors=False,
                                                          scheme=GeneralizedAlpha(0.8))}
@@ -109,9 +110,9 @@ def steady_costs(repeats: int) -> dict:
             if not _set_kernels(path == "compiled"):
                 continue
             try:
-                steady_state(p, crank_speed_rpm=rpm, nonlinear=nonlinear, **kw)
+                steady_state(Setup(p, crank_speed_rpm=rpm, nonlinear=nonlinear, **kw))
                 row[path] = 1e3 * _median_time(
-                    lambda: steady_state(p, crank_speed_rpm=rpm, nonlinear=nonlinear, **kw),
+                    lambda: steady_state(Setup(p, crank_speed_rpm=rpm, nonlinear=nonlinear, **kw)),
                     max(3, repeats // 2))
             except Exception as exc:  # noqa: BLE001 - reported, not hidden
                 row[path + "_error"] = f"{type(exc).__name__}: {str(exc)[:200]}"
@@ -140,7 +141,7 @@ import numpy as np
 dyn = LinkageDynamics(load_params())
 u0 = np.zeros(dyn.n)
 def call(scheme, sens):
-    return integrate(dyn, u0, u0, 0.0, dyn.dt, dyn.steps, scheme, step_data=dyn.step_data,
+    return integrate(dyn, u0, u0, 0.0, dyn.dt, dyn.steps_per_period, scheme, step_data=dyn.step_data,
                      sensitivity=sens)
 t = time.perf_counter(); call(None, True); call(GeneralizedAlpha(0.8), True); first = time.perf_counter() - t
 t = time.perf_counter(); call(None, True); call(GeneralizedAlpha(0.8), True); warm = time.perf_counter() - t

@@ -18,6 +18,7 @@ import time
 import numpy as np
 
 import fivebar
+from fivebar.setup import Setup
 
 
 def main() -> None:
@@ -33,7 +34,7 @@ def main() -> None:
         res = fivebar.steady_state(p)
         times.append(time.perf_counter() - t)
     out["steady_state(params)"] = {
-        "median_s": statistics.median(times), "runs": times, "S": int(res.dynamics.steps),
+        "median_s": statistics.median(times), "runs": times, "S": int(res.dynamics.steps_per_period),
         "stable": res.stable, "max_multiplier": float(np.abs(res.floquet_multipliers).max()),
     }
     if not args.timing_only:
@@ -43,7 +44,7 @@ def main() -> None:
         for rpm in (60.0, 300.0, 600.0):
             s = Setup(p, crank_speed_rpm=rpm)
             res = fivebar.steady_state(s)
-            ref = fivebar.steady_state(s, steps_per_period=1600, scheme=PAPER_SCHEME)
+            ref = fivebar.steady_state(Setup(s, steps_per_period=1600, scheme=PAPER_SCHEME))
             rows[f"{rpm:g} r/min"] = {
                 "scheme": repr(s.scheme), "S": s.steps_per_period,
                 "max_multiplier": float(np.abs(res.floquet_multipliers).max()),

@@ -83,7 +83,7 @@ def sweep_state(P, w: float) -> SteadyState:
     """One sweep point: the default (nonlinear) model at w r/min, shooting, the file's S, with
     GeneralizedAlpha(0.8): with the paper's rule the nonlinear shooting fails near 114 r/min
     (its discrete orbit is unstable, multiplier ~40, and a Newton step of a period diverges)."""
-    return steady_state(P, crank_speed_rpm=w, scheme=GeneralizedAlpha(0.8))
+    return steady_state(Setup(P, crank_speed_rpm=w, scheme=GeneralizedAlpha(0.8)))
 
 
 def single_blas_thread() -> None:
@@ -102,36 +102,36 @@ def sweep_chunk(speeds: list[float]) -> list[float]:
 def bench_steps(P, R: int) -> dict:
     out: dict = {}
     for name, nl in (("linear", False), ("nonlinear", True)):
-        d = LinkageDynamics(P, nonlinear=nl)
+        d = LinkageDynamics(Setup(P, nonlinear=nl))
         for sname, sch in (("newmark", Newmark()), ("generalized_alpha_0.8", GeneralizedAlpha(0.8))):
-            orbit = shooting(d, scheme=sch)
+            orbit = shooting(d.setup.replace(scheme=sch))
             u0, v0 = orbit.u[0], orbit.v[0]
             modes = ("full",) if not nl else ("full", "modified")
             for newton in modes:
                 def run(newton=newton):
-                    return integrate(d, u0, v0, 0.0, d.dt, d.steps, sch, step_data=d.step_data, newton=newton)
+                    return integrate(d, u0, v0, 0.0, d.dt, d.steps_per_period, sch, step_data=d.step_data, newton=newton)
 
                 run()  # fills the cached factorisations
                 t, res = timed(run, R)
                 out[f"{name}/{sname}/{newton}"] = {
-                    "us_per_step": 1e6 * t / d.steps,
+                    "us_per_step": 1e6 * t / d.steps_per_period,
                     "newton_iterations_per_step": float(np.mean(res.iterations)),
                     "ms_per_period": 1e3 * t,
                 }
             mode = "uv" if sch.is_newmark else "uva"
 
             def run_sens():
-                return integrate(d, u0, v0, 0.0, d.dt, d.steps, sch, step_data=d.step_data, sensitivity=mode)
+                return integrate(d, u0, v0, 0.0, d.dt, d.steps_per_period, sch, step_data=d.step_data, sensitivity=mode)
 
             t, _ = timed(run_sens, R)
-            out[f"{name}/{sname}/period_with_monodromy"] = {"ms_per_period": 1e3 * t, "us_per_step": 1e6 * t / d.steps}
+            out[f"{name}/{sname}/period_with_monodromy"] = {"ms_per_period": 1e3 * t, "us_per_step": 1e6 * t / d.steps_per_period}
     return out
 
 
 def bench_steady(P, R: int) -> dict:
     out = {}
     for name, nl in (("linear", False), ("nonlinear", True)):
-        t, ss = timed(lambda: steady_state(P, nonlinear=nl), R)
+        t, ss = timed(lambda: steady_state(Setup(P, nonlinear=nl)), R)
         out[f"steady_state({name}) default: shooting, {DEFAULT}"] = {
             "s": t, "periods": ss.periods, "largest_floquet_multiplier": float(abs(ss.floquet_multipliers[0]))}
     return out
@@ -139,7 +139,7 @@ def bench_steady(P, R: int) -> dict:
 
 def radau_from_rest(P, rtol: float, periods: int = 2, motors: bool = True) -> tuple[float, SteadyState, dict]:
     """solve_ivp Radau from rest over ``periods`` periods; the last one as a SteadyState."""
-    d = LinkageDynamics(P, motors=motors)  # the same equations: M, C, K, F and f_nl at any t
+    d = LinkageDynamics(Setup(P, motors=motors))  # the same equations: M, C, K, F and f_nl at any t
     n = d.n
 
     def rhs(t, x):
@@ -161,7 +161,7 @@ def radau_from_rest(P, rtol: float, periods: int = 2, motors: bool = True) -> tu
     sol = scipy.integrate.solve_ivp(rhs, (0.0, periods * T), np.zeros(2 * n), method="Radau",
                                     rtol=rtol, atol=1e-6 * rtol, jac=jac, dense_output=True)
     elapsed = time.perf_counter() - t0
-    ts = np.linspace(0.0, T, d.steps + 1)
+    ts = np.linspace(0.0, T, d.steps_per_period + 1)
     X = sol.sol((periods - 1) * T + ts)
     ss = SteadyState(d, ts, X[:n].T, X[n:].T, "radau", periods)
     x = np.zeros(2 * n)
@@ -172,7 +172,7 @@ def radau_from_rest(P, rtol: float, periods: int = 2, motors: bool = True) -> tu
 
 
 def bench_to_steady(P, R: int, radau_runs: int) -> dict:
-    t_ref, ref_ss = timed(lambda: steady_state(P, steps_per_period=1600), 1)
+    t_ref, ref_ss = timed(lambda: steady_state(Setup(P, steps_per_period=1600)), 1)
     ref = {L: ref_ss.peak_to_peak_mm(L) for L in LINKS}
     out: dict = {
         "reference": {"method": f"shooting, {scheme_name(Setup(P).scheme)}, S=1600, nonlinear",
@@ -187,11 +187,11 @@ def bench_to_steady(P, R: int, radau_runs: int) -> dict:
         "fivebar steady_state(tol=0.01): S chosen for 1 %":
             lambda: steady_state(P, tol=0.01),
         "fivebar shooting, GeneralizedAlpha(0.8), S=50":
-            lambda: steady_state(P, steps_per_period=50, scheme=GeneralizedAlpha(0.8)),
+            lambda: steady_state(Setup(P, steps_per_period=50, scheme=GeneralizedAlpha(0.8))),
         "fivebar march from rest, GeneralizedAlpha(0.8), S=50, tol=1e-3":
-            lambda: march(LinkageDynamics(P, steps_per_period=50), scheme=GeneralizedAlpha(0.8), tol=1e-3),
+            lambda: march(Setup(P, steps_per_period=50, scheme=GeneralizedAlpha(0.8)), tol=1e-3),
         f"fivebar march from rest, GeneralizedAlpha(0.8), S={P.steps_per_period}, tol=1e-3":
-            lambda: march(LinkageDynamics(P), scheme=GeneralizedAlpha(0.8), tol=1e-3),
+            lambda: march(Setup(P, scheme=GeneralizedAlpha(0.8)), tol=1e-3),
     }
     for name, fn in cases.items():
         t, ss = timed(fn, R)
@@ -258,7 +258,7 @@ def main() -> None:
     result: dict = {
         "benchmark": "bench_dynamics",
         "model": {"crank_speed_rpm": P.crank_speed_rpm, "steps_per_period": P.steps_per_period,
-                  "dofs": LinkageDynamics(P, steps_per_period=2).n},
+                  "dofs": LinkageDynamics(Setup(P, steps_per_period=24)).n},
         "machine": {"python": sys.version.split()[0], "numpy": np.__version__, "scipy": scipy.__version__,
                     "platform": platform.platform(), "cpus": os.cpu_count()},
         "repeats": R,

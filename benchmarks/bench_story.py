@@ -49,6 +49,7 @@ import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
+from fivebar.setup import Setup  # noqa: E402
 
 
 def _t(fn, repeats=1):
@@ -80,7 +81,7 @@ def _curve_error(res, ref):
     """Largest deviation of the L2 and L3 midpoint curves from ``ref`` (S a multiple of res's),
     relative to the reference's peak-to-peak value."""
     import numpy as np
-    k = ref.dynamics.steps // res.dynamics.steps
+    k = ref.dynamics.steps_per_period // res.dynamics.steps_per_period
     return max(float(np.abs(res.midpoint_mm(L) - ref.midpoint_mm(L)[::k]).max() / np.ptp(ref.midpoint_mm(L)))
                for L in ("L2", "L3"))
 
@@ -94,13 +95,13 @@ def step_costs(repeats):
     for nl in (False, True):
         s = Setup(load_params(), motors=False, nonlinear=nl)
         dyn = s.dynamics()
-        orb = shooting(dyn, scheme=s.scheme)
+        orb = shooting(s)
 
         def run():
-            integrate(dyn, orb.u[0], orb.v[0], 0.0, dyn.dt, dyn.steps, s.scheme, step_data=dyn.step_data)
+            integrate(dyn, orb.u[0], orb.v[0], 0.0, dyn.dt, dyn.steps_per_period, s.scheme, step_data=dyn.step_data)
         run()
-        out["nonlinear" if nl else "linear"] = 1e6 * _t(run, repeats)[0] / dyn.steps
-    out["S"] = dyn.steps
+        out["nonlinear" if nl else "linear"] = 1e6 * _t(run, repeats)[0] / dyn.steps_per_period
+    out["S"] = dyn.steps_per_period
     return out
 
 
@@ -111,18 +112,18 @@ def steady_costs(repeats):
     out = {}
     for rpm in (60.0, 300.0, 600.0):
         for nl in (False, True):
-            kw = dict(motors=False, nonlinear=nl)
-            ref = steady_state(p, crank_speed_rpm=rpm, steps_per_period=3200, **kw)
-            first, r = _first(lambda: steady_state(p, crank_speed_rpm=rpm, tol=0.01, **kw), repeats)
+            s = Setup(p, crank_speed_rpm=rpm, motors=False, nonlinear=nl)
+            ref = steady_state(s.replace(steps_per_period=3200))
+            first, r = _first(lambda: steady_state(s, tol=0.01), repeats)
             speeds = iter(rpm * (1.0 + 0.01 * k) for k in range(1, repeats + 1))
-            new, _ = _t(lambda: steady_state(p, crank_speed_rpm=next(speeds), tol=0.01, **kw), repeats)
-            dfirst, d = _first(lambda: steady_state(p, crank_speed_rpm=rpm, **kw), repeats)
-            drep, _ = _t(lambda: steady_state(p, crank_speed_rpm=rpm, **kw), repeats)
-            mar, m = _t(lambda: steady_state(p, crank_speed_rpm=rpm, method="march", **kw))
+            new, _ = _t(lambda: steady_state(s.replace(crank_speed_rpm=next(speeds)), tol=0.01), repeats)
+            dfirst, d = _first(lambda: steady_state(s), repeats)
+            drep, _ = _t(lambda: steady_state(s), repeats)
+            mar, m = _t(lambda: steady_state(s, method="march"))
             out[f"{'nonlinear' if nl else 'linear'}_{rpm:g}rpm"] = {
-                "tol_first": 1e3 * first, "tol_new_speed": 1e3 * new, "tol_S": r.dynamics.steps,
+                "tol_first": 1e3 * first, "tol_new_speed": 1e3 * new, "tol_S": r.dynamics.steps_per_period,
                 "tol_estimate": r.accuracy["estimate"], "tol_true_error": _curve_error(r, ref),
-                "default_first": 1e3 * dfirst, "default_repeat": 1e3 * drep, "default_S": d.dynamics.steps,
+                "default_first": 1e3 * dfirst, "default_repeat": 1e3 * drep, "default_S": d.dynamics.steps_per_period,
                 "default_true_error": _curve_error(d, ref), "march": 1e3 * mar,
                 "periods_default": d.periods, "periods_march": m.periods, "L2_p2p_mm": ref.peak_to_peak_mm("L2")}
     return out
@@ -136,9 +137,9 @@ def radau_cost(quick):
     from fivebar import load_params, steady_state
 
     p = load_params().replace(crank_speed_rpm=300)
-    ref = steady_state(p, steps_per_period=3200, motors=False)
+    ref = steady_state(Setup(p, steps_per_period=3200, motors=False))
     el, ss, stats = radau_from_rest(p, 1e-3, periods=4, motors=False)  # 3 periods of transient
-    ref_ss = steady_state(p, steps_per_period=ss.dynamics.steps, motors=False)
+    ref_ss = steady_state(Setup(p, steps_per_period=ss.dynamics.steps_per_period, motors=False))
     return {"s": el, "runs": 1, "rtol": 1e-3, "periods": 4, "L2_p2p_mm": ss.peak_to_peak_mm("L2"),
             "p2p_rel_err": {L: ss.peak_to_peak_mm(L) / ref.peak_to_peak_mm(L) - 1 for L in ("L2", "L3")},
             "curve_error_vs_same_S_orbit": _curve_error(ss, ref_ss), **stats}
@@ -213,12 +214,12 @@ def exudyn_cost(quick, repeats):
             ex, _ = _t(lambda: run(rpm, chosen["mesh"], chosen["steps_per_period"], chosen["ramp_periods"],
                                    chosen["periodicity_tol"] or float("inf")), repeats)
             entry["exudyn_coarsest_within_1pct"] = {**chosen, "ms": 1e3 * ex}
-        fb_ref = steady_state(p, crank_speed_rpm=rpm, motors=False, steps_per_period=3200)
-        first, r = _first(lambda: steady_state(p, crank_speed_rpm=rpm, motors=False, tol=0.01), repeats)
-        steady_state(p, crank_speed_rpm=rpm, motors=False, tol=0.01)
+        fb_ref = steady_state(Setup(p, crank_speed_rpm=rpm, motors=False, steps_per_period=3200))
+        first, r = _first(lambda: steady_state(Setup(p, crank_speed_rpm=rpm, motors=False), tol=0.01), repeats)
+        steady_state(Setup(p, crank_speed_rpm=rpm, motors=False), tol=0.01)
         speeds = iter(rpm * (1.0 + 0.01 * k) for k in range(1, repeats + 1))
-        new, _ = _t(lambda: steady_state(p, crank_speed_rpm=next(speeds), motors=False, tol=0.01), repeats)
-        entry["fivebar_tol_0.01"] = {"first_ms": 1e3 * first, "new_speed_ms": 1e3 * new, "S": r.dynamics.steps,
+        new, _ = _t(lambda: steady_state(Setup(p, crank_speed_rpm=next(speeds), motors=False), tol=0.01), repeats)
+        entry["fivebar_tol_0.01"] = {"first_ms": 1e3 * first, "new_speed_ms": 1e3 * new, "S": r.dynamics.steps_per_period,
                                      "estimate": r.accuracy["estimate"], "error_vs_S3200": _curve_error(r, fb_ref)}
         if chosen is not None:
             entry["ratio_exudyn_over_fivebar"] = {"first": ex / first, "new_speed": ex / new}
@@ -251,20 +252,20 @@ def scaling(quick, repeats):
     from fivebar import load_params, steady_state
 
     p = load_params()
-    kw = dict(crank_speed_rpm=300, motors=False)
+    base = Setup(p, crank_speed_rpm=300, motors=False)
     out = []
     for mesh in ((1, 2, 2, 1), (2, 4, 4, 2), (4, 8, 8, 4)):
         for S in ((100, 800) if quick else (100, 800, 1600)):
             try:
-                dt, r = _first(lambda: steady_state(p, steps_per_period=S, elements_per_link=mesh, **kw), repeats)
+                dt, r = _first(lambda: steady_state(base.replace(steps_per_period=S, elements_per_link=mesh)), repeats)
                 out.append({"mesh": mesh, "S": S, "n": r.dynamics.n, "ms": 1e3 * dt, "periods": r.periods})
             except Exception as exc:  # noqa: BLE001 - reported
                 out.append({"mesh": mesh, "S": S, "error": f"{type(exc).__name__}: {str(exc)[:200]}"})
-        dt, r = _first(lambda: steady_state(p, tol=0.01, elements_per_link=mesh, **kw), repeats)
+        dt, r = _first(lambda: steady_state(base.replace(elements_per_link=mesh), tol=0.01), repeats)
         speeds = iter(300.0 * (1.0 + 0.01 * k) for k in range(1, 4))
-        dn, _ = _t(lambda: steady_state(p, tol=0.01, elements_per_link=mesh, crank_speed_rpm=next(speeds),
-                                        motors=False), 3)
-        out.append({"mesh": mesh, "S": "tol=0.01", "chosen_S": r.dynamics.steps, "n": r.dynamics.n,
+        dn, _ = _t(lambda: steady_state(base.replace(elements_per_link=mesh, crank_speed_rpm=next(speeds)),
+                                        tol=0.01), 3)
+        out.append({"mesh": mesh, "S": "tol=0.01", "chosen_S": r.dynamics.steps_per_period, "n": r.dynamics.n,
                     "ms": 1e3 * dt, "new_speed_ms": 1e3 * dn})
     exps = {}
     for key in ("ms", "new_speed_ms"):

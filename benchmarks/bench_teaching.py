@@ -22,6 +22,7 @@ matplotlib.use("Agg")
 
 import fivebar  # noqa: E402
 from fivebar import animation, datasets  # noqa: E402
+from fivebar.setup import Setup  # noqa: E402
 
 
 def main() -> dict:
@@ -35,7 +36,7 @@ def main() -> dict:
         out["datasets_total_seconds"] = round(sum(cost.values()), 2)
     params = fivebar.load_params()
     t0 = time.perf_counter()
-    steady = fivebar.steady_state(params, steps_per_period=400)
+    steady = fivebar.steady_state(Setup(params, steps_per_period=400))
     t1 = time.perf_counter()
     anim = animation.animate_linkage(steady)
     t2 = time.perf_counter()

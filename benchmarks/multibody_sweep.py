@@ -28,6 +28,7 @@ import numpy as np
 
 import fivebar
 from fivebar import multibody
+from fivebar.setup import Setup
 
 OUT = Path(__file__).resolve().parents[1] / "data" / "multibody_sweep.json"
 SPEEDS = {0.030: [60, 300, 600, 1000, 1440], 0.002: [15, 30, 45, 60, 90, 120]}
@@ -44,9 +45,9 @@ def ked(params, rpm, nonlinear, steps=S_LIB, **replace):
     params = params.replace(**replace) if replace else params
     t = time.perf_counter()
     try:
-        res = fivebar.steady_state(params, crank_speed_rpm=rpm, motors=False, nonlinear=nonlinear,
-                                   steps_per_period=steps, elements_per_link=MESH,
-                                   scheme=fivebar.GeneralizedAlpha(0.8))
+        res = fivebar.steady_state(Setup(params, crank_speed_rpm=rpm, motors=False, nonlinear=nonlinear,
+                                         steps_per_period=steps, elements_per_link=MESH,
+                                         scheme=fivebar.GeneralizedAlpha(0.8)))
     except Exception as err:  # report, do not stop the sweep
         return {"error": f"{type(err).__name__}: {err}"[:300], "seconds": time.perf_counter() - t}
     return {**p2p(res), "seconds": time.perf_counter() - t, "floquet_max": float(np.abs(res.floquet_multipliers).max())}

@@ -27,6 +27,7 @@ from pathlib import Path
 import fivebar
 from fivebar import multibody
 from fivebar.nonlinear import STRAIN_MEASURES
+from fivebar.setup import Setup
 
 OUT = Path(__file__).resolve().parent / "results" / "nonlinear_vs_multibody.json"
 SPEEDS = [30, 60, 90, 120, 200, 300]
@@ -44,9 +45,9 @@ def _p2p(res) -> dict[str, float]:
 def ked(params, rpm, nonlinear=True, mesh=MESH, steps=S, motors=False):
     t = time.perf_counter()
     try:
-        res = fivebar.steady_state(params, crank_speed_rpm=rpm, motors=motors, nonlinear=nonlinear,
-                                   steps_per_period=steps, elements_per_link=mesh,
-                                   scheme=fivebar.GeneralizedAlpha(0.8))
+        res = fivebar.steady_state(Setup(params, crank_speed_rpm=rpm, motors=motors, nonlinear=nonlinear,
+                                         steps_per_period=steps, elements_per_link=mesh,
+                                         scheme=fivebar.GeneralizedAlpha(0.8)))
     except Exception as err:  # report, do not stop
         return {"error": f"{type(err).__name__}: {err}"[:300], "seconds": time.perf_counter() - t}
     return {**_p2p(res), "stable": bool(res.stable), "seconds": time.perf_counter() - t}
@@ -118,10 +119,10 @@ def _default_run(params, rpm, mesh=None, steps=None):
     t = time.perf_counter()
     try:
         if mesh is None:  # the library's defaults: the paper's mesh, motors, S and scheme of the file
-            res = fivebar.steady_state(params, crank_speed_rpm=rpm)
+            res = fivebar.steady_state(Setup(params, crank_speed_rpm=rpm))
         else:
-            res = fivebar.steady_state(params, crank_speed_rpm=rpm, motors=False, steps_per_period=steps,
-                                       elements_per_link=mesh, scheme=fivebar.GeneralizedAlpha(0.8))
+            res = fivebar.steady_state(Setup(params, crank_speed_rpm=rpm, motors=False, steps_per_period=steps,
+                                             elements_per_link=mesh, scheme=fivebar.GeneralizedAlpha(0.8)))
     except Exception as err:
         return {"error": f"{type(err).__name__}: {err}"[:300]}
     return {**_p2p(res), "seconds": time.perf_counter() - t}

@@ -15,6 +15,7 @@ import fivebar
 from fivebar.branches import brute_force_diagram, describe_speed, follow, linkage_period_map
 from fivebar.errors import FivebarError
 from fivebar.steady import steady_state
+from fivebar.setup import Setup
 
 
 @pytest.fixture(scope="module")
@@ -97,16 +98,16 @@ def test_steady_state_explain_names_what_a_march_from_an_unstable_orbit_does():
     # about 65): a linear map with a multiplier outside the unit circle grows as mu^k, so the march
     # from the orbit diverges (what explain must name); without explain nothing more is computed
     p = fivebar.load_params()
-    kw = dict(steps_per_period=100, scheme=fivebar.PAPER_SCHEME, nonlinear=False)
-    plain = steady_state(p, **kw)
+    paper = Setup(p, steps_per_period=100, scheme=fivebar.PAPER_SCHEME, nonlinear=False)
+    plain = steady_state(paper)
     assert plain.stable is False and plain.explained is None
     assert "explain=True" in plain.note
-    res = steady_state(p, explain=True, **kw)
+    res = steady_state(paper, explain=True)
     assert res.explained.kind == "diverges" and res.note.endswith(res.explained.text)
     assert "unstable" in res.explained.text and "60 r/min" in res.explained.text
     # a stable orbit: nothing to explain, the note as without
-    ok = steady_state(p, nonlinear=False, explain=True)
-    assert ok.stable and ok.explained is None and ok.note == steady_state(p, nonlinear=False).note
+    ok = steady_state(Setup(p, nonlinear=False), explain=True)
+    assert ok.stable and ok.explained is None and ok.note == steady_state(Setup(p, nonlinear=False)).note
     with pytest.raises(FivebarError, match="explain"):
         steady_state(p, method="march", explain=True)
     with pytest.raises(FivebarError, match="explain"):

@@ -117,28 +117,28 @@ def test_sampled_matrices_from_the_store_are_those_sampled_afresh(monkeypatch):
     samples made with the store emptied; a hit shares the stored arrays (no copy)."""
     kw = dict(crank_speed_rpm=200, motors=False)
     clear_cache()
-    fresh = _arrays(LinkageDynamics(P, steps_per_period=40, **kw))
+    fresh = _arrays(LinkageDynamics(Setup(P, steps_per_period=40, **kw)))
     calls = []
     real = LinkageDynamics._sample
     monkeypatch.setattr(LinkageDynamics, "_sample", lambda self, t: calls.append(np.size(t)) or real(self, t))
     for other, sampled in ((80, []), (20, [20])):  # from 2 S: none sampled; from S / 2: the S / 2 new ones
         clear_cache()
-        LinkageDynamics(P, steps_per_period=other, **kw)
+        LinkageDynamics(Setup(P, steps_per_period=other, **kw))
         calls.clear()
-        d = LinkageDynamics(P, steps_per_period=40, **kw)
+        d = LinkageDynamics(Setup(P, steps_per_period=40, **kw))
         assert calls == sampled
         assert _same_bits(_arrays(d), fresh)
     calls.clear()
-    again = LinkageDynamics(P, steps_per_period=40, **kw)
+    again = LinkageDynamics(Setup(P, steps_per_period=40, **kw))
     assert calls == [] and _same_bits(_arrays(again), fresh)
     for name in "MCK":
         assert np.shares_memory(getattr(again.step_data, name), getattr(d.step_data, name))
     # another speed: M, C, K are the same arrays; F is the stored F / Omega^2 times the new
     # Omega^2, equal to sampling it afresh to rounding (the two products round differently)
-    other = LinkageDynamics(P, steps_per_period=40, crank_speed_rpm=437, motors=False)
+    other = LinkageDynamics(Setup(P, steps_per_period=40, crank_speed_rpm=437, motors=False))
     assert calls == [] and _same_bits(_arrays(other)[:3], fresh[:3])
     clear_cache()
-    direct = LinkageDynamics(P, steps_per_period=40, crank_speed_rpm=437, motors=False)
+    direct = LinkageDynamics(Setup(P, steps_per_period=40, crank_speed_rpm=437, motors=False))
     F, G = _arrays(other)[3], _arrays(direct)[3]
     assert np.abs(F - G).max() <= 1e-14 * np.abs(G).max() and not _same_bits([F], [fresh[3]])
 
@@ -155,19 +155,20 @@ def test_a_sweep_point_from_the_store_is_the_one_computed_afresh(monkeypatch):
     from fivebar import sweep
 
     speeds = [150.0, 420.0]
-    first = dict(steps_per_period=50, progress=False)
-    second = dict(steps_per_period=50, progress=False, links=("L2",), direction="chord")
+    first = dict(progress=False)
+    second = dict(progress=False, links=("L2",), direction="chord")
+    problem = Setup(P, steps_per_period=50, nonlinear=False)
     clear_cache()
-    a = sweep.speed_sweep(P, speeds, **first)
-    b = sweep.speed_sweep(P, speeds, **second)  # other options: other entries
+    a = sweep.speed_sweep(problem, speeds, **first)
+    b = sweep.speed_sweep(problem, speeds, **second)  # other options: other entries
     assert not np.array_equal(a["L2 p2p (mm)"], b["L2 p2p (mm)"])
     real = sweep.sweep_point
     monkeypatch.setattr(sweep, "sweep_point", lambda *a, **k: pytest.fail("a hit must not compute"))
-    hit_a, hit_b = sweep.speed_sweep(P, speeds, **first), sweep.speed_sweep(P, speeds, **second)
+    hit_a, hit_b = sweep.speed_sweep(problem, speeds, **first), sweep.speed_sweep(problem, speeds, **second)
     monkeypatch.setattr(sweep, "sweep_point", real)
     for hit, opts in ((hit_a, first), (hit_b, second)):
         clear_cache()
-        pd.testing.assert_frame_equal(hit, sweep.speed_sweep(P, speeds, **opts), check_exact=True)
+        pd.testing.assert_frame_equal(hit, sweep.speed_sweep(problem, speeds, **opts), check_exact=True)
 
 
 def test_results_do_not_depend_on_the_budget_and_it_holds(budget):
@@ -180,7 +181,7 @@ def test_results_do_not_depend_on_the_budget_and_it_holds(budget):
     def run():
         out = []
         for S in (60, 120, 60):
-            res = steady_state(P, crank_speed_rpm=300.0, steps_per_period=S, nonlinear=False)
+            res = steady_state(Setup(P, crank_speed_rpm=300.0, steps_per_period=S, nonlinear=False))
             out.append((res.u.copy(), res.v.copy(), res.floquet_multipliers.copy()))
             assert cache_size().bytes <= STORE.max_bytes or cache_size().entries == 1
         return out
@@ -193,7 +194,7 @@ def test_results_do_not_depend_on_the_budget_and_it_holds(budget):
     for x, y in zip(ample, tight):
         assert _same_bits(x, y)
     budget.limit(max_bytes=2 * 2**20)
-    steady_state(P, crank_speed_rpm=400, steps_per_period=200, nonlinear=False)
+    steady_state(Setup(P, crank_speed_rpm=400, steps_per_period=200, nonlinear=False))
     assert cache_size().bytes <= 2 * 2**20 or cache_size().entries == 1
 
 
@@ -237,13 +238,13 @@ def test_no_cache_of_the_library_lives_outside_the_store():
     s = Setup(P, crank_speed_rpm=320, steps_per_period=50, nonlinear=False, motors=False)
     res = steady_state(s)
     res.bending_stress()
-    steady_state(P, crank_speed_rpm=300, motors=False, tol=0.05)
-    steady_state(P, crank_speed_rpm=310, motors=False, tol=0.05)  # from the remembered orbit
-    sweep.speed_sweep(P, [200.0], steps_per_period=50, progress=False)
-    resonance.linkage_frequencies(P, n_modes=2, steps=20)
+    steady_state(Setup(P, crank_speed_rpm=300, motors=False), tol=0.05)
+    steady_state(Setup(P, crank_speed_rpm=310, motors=False), tol=0.05)  # from the remembered orbit
+    sweep.speed_sweep(Setup(P, steps_per_period=50, nonlinear=False), [200.0], progress=False)
+    resonance.linkage_frequencies(Setup(P, steps_per_period=24), n_modes=2)
     elements.gauss_points(4, 0.3)
     response.transient(s, 1)
-    LinkageDynamics(P, steps_per_period=30, nonlinear=True).nonlinear_geometry(0.0)
+    LinkageDynamics(Setup(P, steps_per_period=30, nonlinear=True)).nonlinear_geometry(0.0)
     grown = [k for k, v in _containers().items() if k not in before or before[k][0] != id(v)
              or _contents(v) != before[k][1]]
     assert not grown, f"module-level containers changed by computing (a cache outside fivebar.cache?): {grown}"

@@ -20,6 +20,7 @@ from fivebar.kinematics import crank_laws
 from fivebar.newmark import integrate
 from fivebar.systems import System
 from fivebar.rigid import inertia_model, inverse_dynamics, mass_matrix
+from fivebar.setup import Setup
 
 P = load_params()
 FL = FlexibleLinkage(P)
@@ -72,7 +73,7 @@ def test_clamped_rotors_recover_the_prescribed_motion_equation():
     same M, K and inertial load -M u_r'' as fivebar.dynamics.LinkageDynamics."""
     from fivebar.dynamics import LinkageDynamics
 
-    dyn = LinkageDynamics(P, steps_per_period=8, nonlinear=False)
+    dyn = LinkageDynamics(Setup(P, steps_per_period=24, nonlinear=False))
     labels = [dyn.model.dofs[i].label for i in dyn.keep]
     rename = {"U4": "L1@A.slope", "U8": "L4@E.slope"}
     order = [FL.labels.index(rename.get(lab, lab)) for lab in labels]
@@ -246,7 +247,7 @@ def test_reference_from_the_prescribed_steady_state():
     from fivebar.steady import steady_state
 
     S = 40
-    ref = steady_state(P, steps_per_period=S, nonlinear=False)
+    ref = steady_state(Setup(P, steps_per_period=S, nonlinear=False))
     Pr, _ = _reference(ref, FL, P, S)
     laws = crank_laws(P, ref.t[:S])
     W = FL.elastic_midpoint_rows(laws[0], laws[3])
@@ -263,16 +264,16 @@ def test_simulation_steady_state_and_reference():
 
     S = 400
     servo = pd_servo(P, 5.5)
-    sim = simulate_cycle(P, servo, periods=3, steps_per_period=S)
+    sim = simulate_cycle(Setup(P, steps_per_period=S), servo, periods=3)
     assert sim.periodicity() < 1e-4
-    ideal = steady_state(P, steps_per_period=S, nonlinear=False)
+    ideal = steady_state(Setup(P, steps_per_period=S, nonlinear=False))
     for link in ("L2", "L3"):
         assert abs(sim.peak_to_peak(link) / (1e-3 * ideal.peak_to_peak_mm(link)) - 1) < 0.01
     assert np.abs(sim.error).max() < 1e-4
     # extra gains acting on the deviation from sim's own steady motion change nothing there
     extra = np.stack(servo.gains(FL))  # a second PD loop (stable), on the deviation
-    sim2 = simulate_cycle(P, servo, lambda phi: np.broadcast_to(extra, np.shape(phi) + extra.shape),
-                          reference=sim, periods=3, steps_per_period=S)
+    sim2 = simulate_cycle(Setup(P, steps_per_period=S), servo, lambda phi: np.broadcast_to(extra, np.shape(phi) + extra.shape),
+                          reference=sim, periods=3)
     last = sim.last_period()
     e1, e2 = sim.error[last], sim2.error[last]
     assert np.abs(e2 - e1).max() < 1e-3 * np.abs(e1).max()  # without the reference: 0.5
@@ -288,9 +289,9 @@ def test_closed_loop_multipliers_are_the_decay_of_the_march(bandwidth):
     q = P.replace(crank_speed_rpm=120.0)
     S = 250
     servo = pd_servo(q, bandwidth)
-    rho = abs(closed_loop_multipliers(q, servo, steps_per_period=S)[0])
-    a = simulate_cycle(q, servo, start="rest", periods=8, steps_per_period=S)
-    b = simulate_cycle(q, servo, start="quasi-static", periods=8, steps_per_period=S)
+    rho = abs(closed_loop_multipliers(Setup(q, steps_per_period=S), servo)[0])
+    a = simulate_cycle(Setup(q, steps_per_period=S), servo, start="rest", periods=8)
+    b = simulate_cycle(Setup(q, steps_per_period=S), servo, start="quasi-static", periods=8)
     d = np.abs(a.p - b.p).max(axis=1)
     growth = d[-S - 1:].max() / d[-2 * S - 1:-S].max()
     assert abs(growth / rho - 1) < 0.05
@@ -333,7 +334,7 @@ def test_slow_servo_rigid_stability_matches_the_lagrange_dynamics():
 
     rho_lagrange = (err(5) / err(1)) ** 0.25
     assert rho_lagrange < 0.5  # the reference: stable
-    rho_model = abs(closed_loop_multipliers(q, servo, steps_per_period=250)[0])
+    rho_model = abs(closed_loop_multipliers(Setup(q, steps_per_period=250), servo)[0])
     assert rho_model < 1.0 and abs(rho_model / rho_lagrange - 1) < 0.5
 
 

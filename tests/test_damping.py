@@ -9,12 +9,13 @@ import scipy.linalg as sl
 from fivebar import load_params
 from fivebar.dynamics import LinkageDynamics
 from fivebar.kinematics import link_angles
+from fivebar.setup import Setup
 
 
 @pytest.mark.parametrize("depth", [0.002, 0.030])
 def test_stiffness_damping_gives_zeta_on_the_first_mode_and_beta_omega_over_two_above(depth):
     p = load_params().replace(bending_depth=depth, damping_model="stiffness")
-    d = LinkageDynamics(p, crank_speed_rpm=60, steps_per_period=100, motors=False, nonlinear=False)
+    d = LinkageDynamics(Setup(p, crank_speed_rpm=60, steps_per_period=100, motors=False, nonlinear=False))
     M, C, K = d.step_data.M[0], d.step_data.C[0], d.step_data.K[0]
     n = d.n
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
@@ -28,8 +29,8 @@ def test_stiffness_damping_gives_zeta_on_the_first_mode_and_beta_omega_over_two_
     assert beta == pytest.approx(2 * p.damping_ratio / w[0], rel=1e-9)
     assert zeta[0] == pytest.approx(p.damping_ratio, rel=2e-2)
     assert np.allclose(zeta, beta * w / 2, rtol=3e-2)  # bending modes: the axial share is small
-    modal = LinkageDynamics(p.replace(damping_model="modal"), crank_speed_rpm=60, steps_per_period=100,
-                            motors=False, nonlinear=False)
+    modal = LinkageDynamics(Setup(p.replace(damping_model="modal"), crank_speed_rpm=60, steps_per_period=100,
+                                  motors=False, nonlinear=False))
     assert not np.allclose(modal.step_data.C[0], C)  # the choice takes effect
 
 
@@ -44,7 +45,7 @@ def test_damping_acts_on_the_deformation_rate_of_the_turning_elements():
     """C u' + (K_ode - K) u = beta sum_e R_e^T K_e,bend d/dt(R_e u) for any u, u': the turning
     term against a central difference of the element frames in time."""
     p = load_params().replace(bending_depth=0.002, damping_model="stiffness")
-    d = LinkageDynamics(p, crank_speed_rpm=90, steps_per_period=100, motors=False, nonlinear=False)
+    d = LinkageDynamics(Setup(p, crank_speed_rpm=90, steps_per_period=100, motors=False, nonlinear=False))
     m, k = d.model, d.keep
     rng = np.random.default_rng(3)
     beta = d.stiffness_damping_time

@@ -16,6 +16,7 @@ from fivebar.excitation import (
     modal_basis,
     modal_expansion,
 )
+from fivebar.setup import Setup
 
 
 @pytest.fixture(scope="module")
@@ -25,7 +26,7 @@ def params():
 
 @pytest.fixture(scope="module")
 def dyn(params):
-    return LinkageDynamics(params, 120.0, 100, nonlinear=False)
+    return LinkageDynamics(Setup(params, crank_speed_rpm=120.0, steps_per_period=100, nonlinear=False))
 
 
 # --- Fourier series -----------------------------------------------------------------------------
@@ -97,8 +98,8 @@ def test_load_series_reconstructs_the_model_force_between_steps(dyn, params):
 
 def test_load_coefficients_match_quadrature_of_a_finer_model(params):
     """The DFT coefficients of the S = 100 model against trapezoidal quadrature at S = 400."""
-    coarse = load_expansion(LinkageDynamics(params, 120.0, 100, nonlinear=False), 5)
-    fine = LinkageDynamics(params, 120.0, 400, nonlinear=False)
+    coarse = load_expansion(LinkageDynamics(Setup(params, crank_speed_rpm=120.0, steps_per_period=100, nonlinear=False)), 5)
+    fine = LinkageDynamics(Setup(params, crank_speed_rpm=120.0, steps_per_period=400, nonlinear=False))
     nu = 2 * np.pi / fine.period
     F = fine.step_data.F
     for k in (1, 2, 3):

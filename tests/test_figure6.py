@@ -6,6 +6,7 @@ import pytest
 
 from fivebar import load_params
 from fivebar.figure6 import ASSUMPTION_VARIANTS, Variant, assumption_effects, speed_table
+from fivebar.setup import Setup
 
 P = load_params()
 
@@ -13,7 +14,7 @@ P = load_params()
 def test_em_assumptions_do_not_move_the_linkage_and_damping_barely_does():
     em = tuple(v for v in ASSUMPTION_VARIANTS if v.assumption in ("em_variant", "gap_flux_density"))
     damp = (Variant("damping_ratio", "zeta = 0.05", (("damping_ratio", 0.05),)),)
-    df = assumption_effects(P, em + damp, steps_per_period=50)
+    df = assumption_effects(Setup(P, steps_per_period=50), em + damp)
     assert len(df) == 1 + len(em) + 1
     assert np.all(df["L2 change (%)"].iloc[1:-1] == 0.0) and np.all(df["L3 change (%)"].iloc[1:-1] == 0.0)
     # far below every natural frequency the response is quasi-static: damping hardly matters
@@ -21,7 +22,7 @@ def test_em_assumptions_do_not_move_the_linkage_and_damping_barely_does():
 
 
 def test_speed_scaling_and_torques():
-    df = speed_table(P, (30.0, 60.0), steps_per_period=50)
+    df = speed_table(Setup(P, steps_per_period=50), (30.0, 60.0))
     # quasi-static regime: deflection and stress scale with the square of the speed
     num = df.select_dtypes("number")
     r = num.iloc[1] / num.iloc[0]
@@ -55,9 +56,9 @@ def test_effects_leave_out_the_chosen_values_and_are_converged_for_large_deflect
     assert "2 mm side in the plane" not in set(df.alternative) and "120 r/min" not in set(df.alternative)
     assert {"30 mm side in the plane", "60 r/min", "30 r/min"} <= set(df.alternative)
     assert np.all(df["L2 change (%)"].iloc[1:] != 0.0)
-    ref = steady_state(p, steps_per_period=1600, scheme=PAPER_SCHEME)
+    ref = steady_state(Setup(p, steps_per_period=1600, scheme=PAPER_SCHEME))
     assert df["L2 transverse p-p (um)"].iloc[0] == pytest.approx(1e3 * ref.peak_to_peak_mm("L2"), rel=1e-2)
-    lin = steady_state(p, nonlinear=False)
+    lin = steady_state(Setup(p, nonlinear=False))
     assert abs(lin.peak_to_peak_mm("L2") / ref.peak_to_peak_mm("L2") - 1.0) > 0.2
 
 
@@ -65,6 +66,6 @@ def test_a_variant_without_a_steady_state_is_named_not_raised():
     # crank DE at twice the speed with the coupler BC at 0.35 m: the linkage cannot close
     p = P.replace(L2=0.35)
     v = tuple(v for v in ASSUMPTION_VARIANTS if v.assumption == "speed_ratio")
-    df = assumption_effects(p, v, steps_per_period=100)
+    df = assumption_effects(Setup(p, steps_per_period=100), v)
     assert df["note"].iloc[0] == "" and df["note"].iloc[1].startswith("no periodic steady state found")
     assert np.isnan(df["L2 transverse p-p (um)"].iloc[1])

@@ -23,12 +23,13 @@ from fivebar.nonlinear import STRAIN_MEASURES, NonlinearForce
 from fivebar.steady import shooting
 from fivebar.newmark import NewtonConvergenceError, integrate
 from fivebar.schemes import HHT, GeneralizedAlpha, Newmark
+from fivebar.setup import Setup
 from fivebar.systems import PeriodicStepData, System
 
 
 @pytest.fixture(scope="module")
 def dyn():
-    return LinkageDynamics(load_params(), steps_per_period=100)
+    return LinkageDynamics(Setup(load_params(), steps_per_period=100))
 
 
 def _state(dyn, rng, scale=1.0):
@@ -41,7 +42,7 @@ def _state(dyn, rng, scale=1.0):
 
 def _start(d, scheme):
     """A state met in use: on the periodic orbit (shooting's), at t = 0."""
-    orbit = shooting(d, scheme=scheme)
+    orbit = shooting(d.setup.replace(scheme=scheme))
     r = integrate(d, orbit.u[0], orbit.v[0], 0.0, d.dt, 1, scheme, step_data=d.step_data)
     return orbit.u[0], orbit.v[0], r.a[0]
 
@@ -56,7 +57,7 @@ def test_compiled_strain_force_matches_the_vectorised_force(dyn, measure):
     force, rdata, idata = nl.compiled(*dyn.crank_angles(dyn.t))
     n = dyn.n
     f, K = np.empty(n), np.empty((n, n))
-    for k in (0, 7, 23, dyn.steps + 7):
+    for k in (0, 7, 23, dyn.steps_per_period + 7):
         u = _state(dyn, rng)
         f_ref, K_ref = nl.evaluate(u, dyn.nonlinear_geometry(k * dyn.dt))
         force(u, k, rdata, idata, f, K, True)
@@ -114,7 +115,7 @@ def test_lu_matches_lapack_and_flags_a_singular_matrix():
 @pytest.mark.parametrize("newton", ["full", "modified"])
 @pytest.mark.parametrize("nonlinear", [False, True], ids=["linear", "nonlinear"])
 def test_compiled_linkage_period_matches_the_python_loop(scheme, newton, nonlinear, monkeypatch):
-    d = LinkageDynamics(load_params(), steps_per_period=100, nonlinear=nonlinear)
+    d = LinkageDynamics(Setup(load_params(), steps_per_period=100, nonlinear=nonlinear))
     u0, v0, _ = _start(d, scheme)
     sens = "uva" if not scheme.is_newmark else "uv"
     kw = dict(step_data=d.step_data, newton=newton, sensitivity=sens)
@@ -155,11 +156,11 @@ def test_compiled_monodromy_matches_finite_differences(dyn, scheme):
     sens = "uv" if scheme.is_newmark else "uva"
     kw = dict(step_data=dyn.step_data, store="last", rtol=1e-12, xtol=1e-15, max_iter=50)
     a0 = None if sens == "uv" else a_start
-    res = integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, sensitivity=sens, a0=a0, **kw)
+    res = integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps_per_period, scheme, sensitivity=sens, a0=a0, **kw)
     Phi = res.monodromy
 
     def final(u, v, a):
-        r = integrate(dyn, u, v, 0.0, dyn.dt, dyn.steps, scheme, a0=a, **kw)
+        r = integrate(dyn, u, v, 0.0, dyn.dt, dyn.steps_per_period, scheme, a0=a, **kw)
         x = [r.u[-1], r.v[-1]] + ([] if sens == "uv" else [r.a[-1]])
         return np.concatenate(x)
 
@@ -233,9 +234,9 @@ def test_directions_give_the_monodromy_products(dyn, scheme, compiled, monkeypat
     u0, v0, _ = _start(dyn, scheme)
     sens = "uv" if scheme.is_newmark else "uva"
     kw = dict(step_data=dyn.step_data, store="last", sensitivity=sens)
-    full = integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, **kw).monodromy
+    full = integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps_per_period, scheme, **kw).monodromy
     X = np.random.default_rng(7).standard_normal((full.shape[1], 3))
-    part = integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, directions=X, **kw).monodromy
+    part = integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps_per_period, scheme, directions=X, **kw).monodromy
     assert part.shape == (full.shape[0], 3)
     n = dyn.n
     ref = full @ X
@@ -376,11 +377,11 @@ def test_a_fresh_process_loads_the_compiled_loop_from_the_cache(tmp_path):
     code = ("import json, numpy as np\n"
             "import fivebar.newmark as nm\n"
             "from fivebar.systems import System\n"
-            "from fivebar import load_params\n"
+            "from fivebar import Setup, load_params\n"
             "from fivebar.dynamics import LinkageDynamics\n"
             "from fivebar._jitcache import import_cached\n"
             "for nonlinear in (False, True):\n"
-            "    d = LinkageDynamics(load_params(), steps_per_period=100, nonlinear=nonlinear)\n"
+            "    d = LinkageDynamics(Setup(load_params(), steps_per_period=100, nonlinear=nonlinear))\n"
             "    nm.integrate(d, np.zeros(d.n), np.zeros(d.n), 0.0, d.dt, 3, step_data=d.step_data,\n"
             "                 sensitivity=True)\n"
             "cubic = System(np.eye(2), np.eye(2), np.eye(2), nonlinear=lambda u: (u**3, np.diag(3 * u**2)))\n"

@@ -14,6 +14,7 @@ from fivebar.assembly import build_model
 from fivebar.kinematics import DeadPointError, GeometryError, constant_speed_laws, positions, rigid_state
 from fivebar.linkage import Drive, LinkageError
 from fivebar.modal import frequencies_along_cycle
+from fivebar.setup import Setup
 
 FIVE = load_params()
 FOUR = load_params([fivebar.DEFAULT_PARAMS_PATH, fivebar.FOURBAR_PARAMS_PATH])
@@ -227,7 +228,7 @@ def test_four_bar_steady_response_against_the_multibody_model():
     from fivebar import multibody
 
     mb = multibody.multibody_steady_state(FOUR, 600, steps_per_period=400, samples=100)
-    ked = fivebar.steady_state(FOUR, crank_speed_rpm=600, steps_per_period=400, elements_per_link=(2, 4, 4))
+    ked = fivebar.steady_state(Setup(FOUR, crank_speed_rpm=600, steps_per_period=400, elements_per_link=(2, 4, 4)))
     for link in ("coupler", "rocker"):
         for d in ("transverse", "chord"):
             y_mb, y = mb.midpoint_mm(link, d), ked.midpoint_mm(link, d)[::4]

@@ -13,6 +13,7 @@ pytest.importorskip("exudyn", reason="the multibody model needs exudyn (pinned i
 
 import fivebar  # noqa: E402
 from fivebar import multibody  # noqa: E402
+from fivebar.setup import Setup  # noqa: E402
 
 MESH = (2, 4, 4, 2)
 
@@ -49,8 +50,8 @@ def test_damping_matches_modal_ratio_on_lowest_mode(params):
 def test_slow_steady_state_matches_ked(params, gravity):
     params = params.replace(gravity=gravity, steps_per_period=200)
     mb = fivebar.multibody_steady_state(params, 60.0, steps_per_period=200, elements_per_link=MESH)
-    ked = fivebar.steady_state(params, crank_speed_rpm=60.0, motors=False, nonlinear=False,
-                               elements_per_link=MESH, scheme=fivebar.GeneralizedAlpha(0.8))
+    ked = fivebar.steady_state(Setup(params, crank_speed_rpm=60.0, motors=False, nonlinear=False,
+                                     elements_per_link=MESH, scheme=fivebar.GeneralizedAlpha(0.8)))
     assert mb.periodicity_error < 1e-3
     np.testing.assert_allclose(mb.crank_angle_deg, ked.crank_angle_deg)
     for link in ("L2", "L3"):

@@ -19,6 +19,7 @@ from fivebar.modal_equations import MultiscaleError
 from fivebar.schemes import GeneralizedAlpha
 from fivebar.response import Response
 from fivebar.steady import shooting
+from fivebar.setup import Setup
 
 
 @pytest.fixture(scope="module")
@@ -28,12 +29,12 @@ def params():
 
 @pytest.fixture(scope="module")
 def dyn_nl(params):
-    return LinkageDynamics(params, 120.0, 100, nonlinear=True)
+    return LinkageDynamics(Setup(params, crank_speed_rpm=120.0, steps_per_period=100, nonlinear=True))
 
 
 @pytest.fixture(scope="module")
 def dyn_lin(params):
-    return LinkageDynamics(params, 120.0, 100, nonlinear=False)
+    return LinkageDynamics(Setup(params, crank_speed_rpm=120.0, steps_per_period=100, nonlinear=False))
 
 
 def test_nonlinear_coefficients_reproduce_the_projected_force(dyn_nl):
@@ -95,18 +96,18 @@ def test_modal_model_structure(dyn_lin):
         modal_model(dyn_lin, 2, basis="modal")
     with pytest.raises(MultiscaleError, match="dyn.nonlinear = None is not allowed"):
         modal_model(dyn_lin, 2, nonlinear=True)  # the linear dynamics has no nonlinear force
-    with pytest.raises(MultiscaleError, match="params = None is not allowed without dynamics"):
-        multiple_scales()
+    with pytest.raises(fivebar.FivebarError, match="setup = None .* is not allowed: give a fivebar.Setup"):
+        multiple_scales(None)
     with pytest.raises(MultiscaleError, match="nonlinear_steps = 0 is not allowed: give an integer in 1..100"):
         modal_model(dyn_lin, 2, nonlinear=False, nonlinear_steps=0)
     with pytest.raises(MultiscaleError, match="detuning = 'wide' is not allowed"):
-        multiple_scales(dynamics=dyn_lin, detuning="wide")
+        multiple_scales(dyn_lin.setup, detuning="wide")
 
 
 def test_first_approximation_is_the_modal_particular_solution(dyn_lin):
     """Away from resonance, (3.7) is the undamped particular solution of every harmonic:
     u(t) = sum_r phi_r(t) sum_k F_rk cos(k Omega t + tau_rk) / (w_r^2 - k^2 Omega^2)."""
-    ms = multiple_scales(dynamics=dyn_lin, nonlinear=False)
+    ms = multiple_scales(dyn_lin.setup)
     assert isinstance(ms, MultipleScalesResponse) and isinstance(ms, Response)
     assert np.all(ms.slow.a == 0.0) and ms.method == "multiple scales"
     mm = ms.modal
@@ -125,8 +126,8 @@ def test_first_approximation_is_the_modal_particular_solution(dyn_lin):
 def test_first_approximation_against_the_steady_state(params, dyn_lin):
     """At 120 r/min the first approximation is within 30 % of the steady state (it replaces the
     time-varying modal stiffness by its mean; measured -9 % for L2, -23 % for L3)."""
-    ref = shooting(dyn_lin, scheme=GeneralizedAlpha(0.8))
-    ms = multiple_scales(dynamics=dyn_lin, nonlinear=False)
+    ref = shooting(dyn_lin.setup.replace(scheme=GeneralizedAlpha(0.8)))
+    ms = multiple_scales(dyn_lin.setup)
     for link in ("L2", "L3"):
         assert ms.peak_to_peak_mm(link) == pytest.approx(ref.peak_to_peak_mm(link), rel=0.3)
     # with every mode and the instantaneous frequencies the modal quasi-static sum is exact
@@ -138,19 +139,19 @@ def test_first_approximation_against_the_steady_state(params, dyn_lin):
 
 
 def test_multiple_scales_newmark_reaches_the_steady_state(params, dyn_nl):
-    ref = shooting(dyn_nl, scheme=GeneralizedAlpha(0.8))
-    st = multiple_scales_newmark(dynamics=dyn_nl, tol=1e-6)
+    ref = shooting(dyn_nl.setup.replace(scheme=GeneralizedAlpha(0.8)))
+    st = multiple_scales_newmark(dyn_nl.setup, tol=1e-6)
     assert st.periods >= 2 and st.method == "march"
     for link in ("L2", "L3"):
         assert st.peak_to_peak_mm(link) == pytest.approx(ref.peak_to_peak_mm(link), rel=1e-4)
-    u0, v0 = initial_state(dyn_nl, "rest")
+    u0, v0 = initial_state(dyn_nl.setup, "rest")
     assert not u0.any() and not v0.any()
     with pytest.raises(MultiscaleError, match="start = 'random' is not allowed"):
-        initial_state(dyn_nl, "random")
+        initial_state(dyn_nl.setup, "random")
 
 
 def test_compare_starts_table(params):
-    df = compare_starts(params, [120.0], nonlinear=False)
+    df = compare_starts(Setup(params, nonlinear=False), [120.0])
     row = df.iloc[0]
     for s in ("multiple scales", "rest", "quasi-static"):
         assert row[f"periods from {s}"] >= 1
@@ -159,6 +160,6 @@ def test_compare_starts_table(params):
 
 
 def test_effective_frequency_past_divergence_raises(params):
-    dyn = LinkageDynamics(params.replace(bending_depth=0.002), 400.0, 100, nonlinear=False)
+    dyn = LinkageDynamics(Setup(params.replace(bending_depth=0.002), crank_speed_rpm=400.0, steps_per_period=100, nonlinear=False))
     with pytest.raises(MultiscaleError, match="spin-softening"):
-        multiple_scales(dynamics=dyn, frequencies="effective")
+        multiple_scales(dyn.setup, frequencies="effective")

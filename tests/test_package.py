@@ -28,7 +28,7 @@ SCRIPT = textwrap.dedent(
     assert len(rep.errata_table()) > 20
     f = fivebar.natural_frequencies(p, 0.0, 0.0, n_modes=2)
     assert 20 < f[0] < 100, f
-    r = fivebar.steady_state(p, steps_per_period=60, nonlinear=False)
+    r = fivebar.steady_state(fivebar.Setup(p, steps_per_period=60, nonlinear=False))
     assert r.stable and r.peak_to_peak_mm("L2") > 0
     print("OK", fivebar.__file__)
     """

@@ -131,16 +131,16 @@ def test_spin_softening_of_the_lowest_mode(params):
     for p, rpm in ((params, 600.0), (params.replace(bending_depth=0.002), 200.0)):
         h = spin_softening(p, 3)
         assert -1.4 < h[0] < -0.9
-        w = effective_frequencies(p, rpm, 3)
+        w = effective_frequencies(p.replace(crank_speed_rpm=rpm), 3)
         W = rpm * 2 * np.pi / 60
         assert w ** 2 == pytest.approx(linkage_frequencies(p, 3).mean(0) ** 2 + h * W**2)
 
 
 def test_resonance_table_of_the_linkage(params):
-    assert resonance_table(params, 60.0).empty
+    assert resonance_table(params.replace(crank_speed_rpm=60.0)).empty
     wbar = linkage_frequencies(params, 2).mean(axis=0)
     rpm = wbar[0] / 2 * 60 / (2 * np.pi)  # 2 Omega = omega_1
-    df = resonance_table(params, rpm)
+    df = resonance_table(params.replace(crank_speed_rpm=rpm))
     row = df[(df["type"] == "superharmonic") & (df["mode"] == "1")]
     assert row["excitation"].iloc[0] == "2 nu1=nu2=nu3"
     assert abs(row["relative detuning"].iloc[0]) < 1e-9
@@ -148,17 +148,17 @@ def test_resonance_table_of_the_linkage(params):
     sp = resonance_speeds(params, n_modes=2, frequencies="effective")
     eff = sp[(sp["type"] == "superharmonic") & (sp["mode"] == "1") & (sp["k"] == 2)]["speed (r/min)"].iloc[0]
     assert eff < 0.95 * rpm
-    df = resonance_table(params, eff, frequencies="effective")
+    df = resonance_table(params.replace(crank_speed_rpm=eff), frequencies="effective")
     assert ((df["type"] == "superharmonic") & (df["mode"] == "1")).any()
     with pytest.raises(ResonanceError):
-        resonance_table(params, rpm, frequencies="instantaneous")
+        resonance_table(params.replace(crank_speed_rpm=rpm), frequencies="instantaneous")
 
 
 def test_resonance_speeds_solve_their_conditions(params):
     sp = resonance_speeds(params, n_modes=2, frequencies="effective", speed_range=(100, 4000))
     for row in sp.itertuples():
         W = row[1] * 2 * np.pi / 60
-        w = effective_frequencies(params, row[1], 2)
+        w = effective_frequencies(params.replace(crank_speed_rpm=row[1]), 2)
         if row.type in ("primary", "superharmonic"):
             assert row.k * W == pytest.approx(w[int(row.mode) - 1], rel=1e-9)
         elif row.type == "parametric":
@@ -166,7 +166,7 @@ def test_resonance_speeds_solve_their_conditions(params):
             target = w[r] + w[s] if "+" in row.mode else abs(w[r] - w[s])
             assert row.k * W == pytest.approx(target, rel=1e-7)
         elif row.type == "divergence":
-            assert np.isnan(effective_frequencies(params, row[1] * 1.001, 2)[int(row.mode) - 1])
+            assert np.isnan(effective_frequencies(params.replace(crank_speed_rpm=row[1] * 1.001), 2)[int(row.mode) - 1])
     mean = resonance_speeds(params, n_modes=2)
     assert set(mean["type"]) == {"primary", "superharmonic", "subharmonic", "parametric"}
 

@@ -20,13 +20,14 @@ from fivebar.linkage_multiscale import MultipleScalesResponse
 from fivebar.multibody import MultibodySteadyState
 from fivebar.response import Response, quasi_static, radau, transient
 from fivebar.steady import SteadyState, shooting
+from fivebar.setup import Setup
 
 P = load_params()
 
 
 @pytest.fixture(scope="module")
 def dyn():
-    return LinkageDynamics(P, nonlinear=False, steps_per_period=16)
+    return LinkageDynamics(Setup(P, nonlinear=False, steps_per_period=24))
 
 
 def _index(dyn, label):
@@ -91,30 +92,30 @@ def test_quasi_static_is_k_inverse_f_at_each_time(dyn):
     the step times the sampled matrices give the same deflection, and the periodic central
     difference of a fine grid the same velocity within its (omega dt)^2 error."""
     t = np.linspace(0.013, 0.7 * dyn.period, 9)
-    r = quasi_static(dyn, t)
+    r = quasi_static(dyn.setup, t)
     assert r.method == "quasi-static" and isinstance(r, Response)
     for k in (0, 4, 8):
         K, F = dyn.matrices(t[k])[2], dyn.force(t[k])
         assert r.u[k] == pytest.approx(np.linalg.solve(K, F), rel=1e-10, abs=1e-14 * np.abs(r.u).max())
     h = 1e-4 * dyn.period
-    w = quasi_static(dyn, t[4] + h * np.array([-2.0, -1.0, 1.0, 2.0])).u
+    w = quasi_static(dyn.setup, t[4] + h * np.array([-2.0, -1.0, 1.0, 2.0])).u
     v_ref = (w[0] - 8 * w[1] + 8 * w[2] - w[3]) / (12 * h)
     assert np.abs(r.v[4] - v_ref).max() < 1e-6 * np.abs(v_ref).max()
-    grid = quasi_static(dyn)
-    assert grid.t.size == dyn.steps + 1 and np.array_equal(grid.u[0], grid.u[-1])
+    grid = quasi_static(dyn.setup)
+    assert grid.t.size == dyn.steps_per_period + 1 and np.array_equal(grid.u[0], grid.u[-1])
     K, F = dyn.matrices(grid.t[5])[2], dyn.force(grid.t[5])
     assert grid.u[5] == pytest.approx(np.linalg.solve(K, F), rel=1e-10, abs=1e-14 * np.abs(grid.u).max())
-    fine = LinkageDynamics(P, nonlinear=False, steps_per_period=400)
-    g, exact = quasi_static(fine), quasi_static(fine, fine.t[::50])
+    fine = LinkageDynamics(Setup(P, nonlinear=False, steps_per_period=400))
+    g, exact = quasi_static(fine.setup), quasi_static(fine.setup, fine.t[::50])
     assert np.abs(g.v[:-1:50] - exact.v).max() < 1e-2 * np.abs(exact.v).max()
 
 
 def test_the_slow_steady_state_is_the_quasi_static_response():
     """At 3 r/min the inertial load is slow: the shooting orbit's midpoint curves are the
     quasi-static response's, read through the same accessors."""
-    d = LinkageDynamics(P.replace(crank_speed_rpm=3.0), nonlinear=False, steps_per_period=100)
-    orbit = shooting(d)
-    qs = quasi_static(d)
+    d = LinkageDynamics(Setup(P.replace(crank_speed_rpm=3.0), nonlinear=False, steps_per_period=100))
+    orbit = shooting(d.setup)
+    qs = quasi_static(d.setup)
     for link in ("L2", "L3"):
         assert np.abs(orbit.midpoint_mm(link) - qs.midpoint_mm(link)).max() < 2e-3 * qs.peak_to_peak_mm(link)
 
@@ -122,19 +123,19 @@ def test_the_slow_steady_state_is_the_quasi_static_response():
 def test_a_transient_from_the_orbit_stays_on_it(dyn):
     """Started on the periodic orbit, two periods of the transient repeat the orbit in each
     period (a wrong start, step or slicing of the periods would not): the first to rounding,
-    the second within the scheme's error at this coarse S = 16 (shooting closes the orbit in
+    the second within the scheme's error at this coarse S = 24 (shooting closes the orbit in
     (u, v) with the start's acceleration from the equation of motion, while the march carries
     the generalised-alpha acceleration on through T)."""
-    orbit = shooting(dyn)
-    r = transient(dyn, 2, orbit.u[0], orbit.v[0], orbit.scheme)
-    assert r.method == "transient" and r.t.size == 2 * dyn.steps + 1 and r.solver.iterations.size == 2 * dyn.steps
+    orbit = shooting(dyn.setup)
+    r = transient(orbit.setup, 2, orbit.u[0], orbit.v[0])
+    assert r.method == "transient" and r.t.size == 2 * dyn.steps_per_period + 1 and r.solver.iterations.size == 2 * dyn.steps_per_period
     scale = np.abs(orbit.u).max()
     for k, tol in ((0, 1e-9), (1, 1e-3)):
         p = r.period(k)
-        assert p.t[0] == pytest.approx(k * dyn.period) and p.t.size == dyn.steps + 1
+        assert p.t[0] == pytest.approx(k * dyn.period) and p.t.size == dyn.steps_per_period + 1
         assert np.abs(p.u - orbit.u).max() < tol * scale
         assert np.abs(p.midpoint_mm("L2") - orbit.midpoint_mm("L2")).max() < tol * orbit.peak_to_peak_mm("L2")
-    rest = transient(dyn, 1)
+    rest = transient(dyn.setup, 1)
     assert np.all(rest.u[0] == 0.0) and np.abs(rest.u[-1]).max() > 0.0
 
 
@@ -150,7 +151,7 @@ def test_every_result_in_time_is_read_alike():
 
 
 def test_plot_draws_the_midpoint_curves(dyn):
-    r = quasi_static(dyn)
+    r = quasi_static(dyn.setup)
     ax = r.plot()
     lines = ax.get_lines()
     assert [ln.get_label() for ln in lines] == ["L2 (quasi-static)", "L3 (quasi-static)"]
@@ -175,8 +176,8 @@ def test_bad_input_names_the_argument(dyn):
     with pytest.raises(FivebarError, match="k = 0 is not allowed"):
         r.period(0)
     with pytest.raises(FivebarError, match="periods = 0"):
-        transient(dyn, 0)
+        transient(dyn.setup, 0)
     with pytest.raises(FivebarError, match="t = .* is not allowed"):
-        quasi_static(dyn, [])
+        quasi_static(dyn.setup, [])
     with pytest.raises(FivebarError, match="t = .* is not allowed"):
-        radau(dyn, [0.0])
+        radau(dyn.setup, [0.0])

@@ -22,7 +22,7 @@ def params():
 
 @pytest.fixture(scope="module")
 def serial(params):
-    return speed_sweep(params, SPEEDS, progress=False, cache=False)
+    return speed_sweep(fivebar.Setup(params, nonlinear=False), SPEEDS, progress=False, cache=False)
 
 
 def _same(a: pd.DataFrame, b: pd.DataFrame) -> None:
@@ -32,7 +32,7 @@ def _same(a: pd.DataFrame, b: pd.DataFrame) -> None:
 
 def test_process_pool_equals_serial(params, serial):
     with ProcessPoolExecutor(max_workers=2) as ex:
-        par = speed_sweep(params, SPEEDS, executor=ex, progress=False, cache=False)
+        par = speed_sweep(fivebar.Setup(params, nonlinear=False), SPEEDS, executor=ex, progress=False, cache=False)
     _same(par, serial)
 
 
@@ -40,19 +40,19 @@ def test_dask_local_cluster_equals_serial(params, serial):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
-        par = speed_sweep(params, SPEEDS, executor=client.get_executor(), progress=False, cache=False)
+        par = speed_sweep(fivebar.Setup(params, nonlinear=False), SPEEDS, executor=client.get_executor(), progress=False, cache=False)
     _same(par, serial)
 
 
 def test_threads_and_cache(params, serial):
     clear_cache()
     with ThreadPoolExecutor(max_workers=2) as ex:
-        a = speed_sweep(params, SPEEDS[::-1], executor=ex, progress=True)
+        a = speed_sweep(fivebar.Setup(params, nonlinear=False), SPEEDS[::-1], executor=ex, progress=True)
     _same(a.iloc[::-1].reset_index(drop=True), serial)
     from fivebar import sweep as module
 
     assert len(STORE.keys(module._POINTS)) == 3
-    b = speed_sweep(params, SPEEDS, progress=False)  # served from the cache, in the order asked
+    b = speed_sweep(fivebar.Setup(params, nonlinear=False), SPEEDS, progress=False)  # served from the cache, in the order asked
     _same(b, serial)
     clear_cache()
     assert not STORE.keys(module._POINTS)
@@ -60,7 +60,7 @@ def test_threads_and_cache(params, serial):
 
 def test_quasi_static_limit(params):
     """At a crawl the dynamic amplification tends to 1 (the response is K^-1 F)."""
-    df = speed_sweep(params, [5.0], progress=False, cache=False)
+    df = speed_sweep(fivebar.Setup(params, nonlinear=False), [5.0], progress=False, cache=False)
     assert df["L2 amplification"].iloc[0] == pytest.approx(1.0, abs=2e-3)
     assert df["L3 amplification"].iloc[0] == pytest.approx(1.0, abs=2e-3)
     assert df["max |multiplier|"].iloc[0] < 1.0
@@ -75,7 +75,7 @@ def test_peak_sits_at_the_predicted_superharmonic_resonance(params):
         sp = resonance_speeds(p, n_modes=1, frequencies=kind)
         pred[kind] = sp[(sp["type"] == "superharmonic") & (sp["k"] == 2)]["speed (r/min)"].iloc[0]
     speeds = np.linspace(0.9 * pred["effective"], 1.1 * pred["effective"], 11)
-    df = speed_sweep(p, speeds, progress=False, cache=False)
+    df = speed_sweep(fivebar.Setup(p, nonlinear=False), speeds, progress=False, cache=False)
     i = int(df["L2 amplification"].idxmax())
     peak = df["speed (r/min)"].iloc[i]
     assert 0 < i < len(df) - 1  # an interior maximum

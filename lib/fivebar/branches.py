@@ -40,7 +40,7 @@ from .errors import FivebarError, InputError
 from .newmark import NewtonConvergenceError
 from .params import Params
 from .periodic import PeriodicOrbit, _one_blas_thread, shoot
-from .setup import Setup, as_setup
+from .setup import Setup, analysis, as_setup
 from .steady import SteadyState, _monodromy_period, _period, steady_state
 
 __all__ = ["BruteForceDiagram", "LinkageBranch", "LinkagePeriodMap", "SpeedReport", "brute_force_diagram", "describe_speed",
@@ -134,6 +134,7 @@ class LinkagePeriodMap:
         return SteadyState(dyn, res.t, res.u, res.v, "continuation", 1, scheme=s.scheme)
 
 
+@analysis
 def linkage_period_map(setup: Setup | Params, parameter: str = _SPEED) -> LinkagePeriodMap:
     """The linkage's period map in ``parameter`` (a :class:`fivebar.periodic.PeriodMap`).
 
@@ -271,6 +272,7 @@ def _scan_scale(f: LinkagePeriodMap, p0: float, p_end: float, count: int = 12) -
     return np.r_[E / np.sqrt(np.diag(sd.K[0])), E / (dyn.params.crank_speed_rad_s * np.sqrt(np.diag(sd.M[0])))]
 
 
+@analysis
 @_one_blas_thread
 def follow(
     setup: Setup | Params,
@@ -439,6 +441,7 @@ def _midpoint0(dyn, u: Array, link: str) -> float:
     return float(1e3 * tr[0])
 
 
+@analysis
 @_one_blas_thread
 def brute_force_diagram(
     setup: Setup | Params,
@@ -520,6 +523,7 @@ class SpeedReport:
     found: PeriodicOrbit | None = None
 
 
+@analysis
 @_one_blas_thread
 def describe_speed(setup: Setup | Params, value: float | None = None, parameter: str = _SPEED, *,
                    periods: int = 400, branch: LinkageBranch | None = None) -> SpeedReport:

@@ -46,7 +46,7 @@ from .schemes import Scheme
 from .systems import PeriodicStepData, System
 from .periodic import floquet_multipliers
 from .params import Params
-from .setup import Setup, as_setup
+from .setup import Setup, analysis, as_setup
 
 __all__ = ["CycleSimulation", "closed_loop_multipliers", "simulate_cycle"]
 
@@ -125,9 +125,9 @@ def _reference(ref, fl: FlexibleLinkage, params: Params, S: int) -> tuple[NDArra
     dyn = getattr(ref, "dynamics", None)
     if dyn is None:
         raise InputTypeError(f"reference must be a SteadyState or a CycleSimulation, got {type(ref).__name__}")
-    if dyn.steps != S or not math.isclose(dyn.period, params.period, rel_tol=1e-12):
+    if dyn.steps_per_period != S or not math.isclose(dyn.period, params.period, rel_tol=1e-12):
         raise InputError(
-            f"reference has {dyn.steps} steps over {dyn.period:.6g} s: it must have {S} steps over "
+            f"reference has {dyn.steps_per_period} steps over {dyn.period:.6g} s: it must have {S} steps over "
             f"{params.period:.6g} s (the same crank speed and steps_per_period)"
         )
     labels = [dyn.model.dofs[i].label for i in dyn.keep]
@@ -162,8 +162,8 @@ class _ClosedLoop:
     tau_ff: NDArray
 
 
-def _closed_loop(params, servo, damping, reference, steps_per_period, crank_speed_rpm, scheme) -> _ClosedLoop:
-    setup = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period, scheme=scheme)
+def _closed_loop(setup, servo, damping, reference) -> _ClosedLoop:
+    setup = as_setup(setup)
     params = setup.run_params
     S = _count("steps_per_period", setup.steps_per_period, 2, 10**7)
     if not isinstance(servo, Servo):
@@ -201,21 +201,19 @@ def _closed_loop(params, servo, damping, reference, steps_per_period, crank_spee
     return _ClosedLoop(fl, params, setup.scheme, S, dt, laws, Phi, sd, Gp, Gv, u_ref, tau_ff)
 
 
+@analysis
 def simulate_cycle(
-    params: Params | Setup,
+    setup: Setup | Params,
     servo: Servo,
     damping: Callable[[ArrayLike], NDArray] | None = None,
     *,
     reference=None,
     periods: int = 3,
-    steps_per_period: int | None = None,
-    crank_speed_rpm: float | None = None,
     start: str = "quasi-static",
-    scheme: Scheme | None = None,
 ) -> CycleSimulation:
     """Closed-loop kineto-elastodynamics with free rotors along the nominal motion.
 
-    ``sim = simulate_cycle(params, servo)``; ``sim.peak_to_peak("L2")``.
+    ``sim = simulate_cycle(setup, servo)``; ``sim.peak_to_peak("L2")``.
 
     Integrates, with the set-up's scheme (the parameter file's generalised-alpha by default,
     errata E26; :func:`fivebar.newmark.integrate`) on the full-order model of :class:`FlexibleLinkage` (no modal truncation),
@@ -231,9 +229,9 @@ def simulate_cycle(
 
     Parameters
     ----------
-    params
-        Parameter set, or a :class:`fivebar.setup.Setup` (its crank speed, S and scheme are the
-        defaults of the keywords below; motors, nonlinearity and mesh do not apply here).
+    setup
+        The problem, a :class:`fivebar.setup.Setup` (its crank speed, S and scheme; motors,
+        nonlinearity and mesh do not apply here), or a Params (``Setup(params)``).
     servo
         The PD servo (it acts on the deviation of the measured angle from the crank laws).
     damping
@@ -244,20 +242,14 @@ def simulate_cycle(
         (an ideal servo's elastic motion), or a :class:`CycleSimulation`; ``None``: zero.
     periods
         Periods of the motion to integrate (the last one is taken as the steady state).
-    steps_per_period
-        Steps per period; ``None`` takes the set-up's (the parameter file's).
-    crank_speed_rpm
-        Crank speed (r/min); ``None`` takes the set-up's (the parameters').
     start
         "quasi-static" (the static deflection under the load at t = 0, at rest relative to
         it) or "rest" (p = 0, p' = 0: the linkage released undeformed at speed).
-    scheme
-        Time integrator; ``None`` takes the set-up's.
     """
     if start not in ("quasi-static", "rest"):
         raise InputError(f"start = {start!r} is not allowed: use 'quasi-static' or 'rest'")
     periods = _count("periods", periods, 1, 10**6)
-    cl = _closed_loop(params, servo, damping, reference, steps_per_period, crank_speed_rpm, scheme)
+    cl = _closed_loop(setup, servo, damping, reference)
     fl, S, dt, sd, Kc, F = cl.linkage, cl.steps, cl.dt, cl.step_data, cl.step_data.K, cl.step_data.F
     Cc, M, Gp, Gv, u_ref = cl.step_data.C, cl.step_data.M, cl.Gp, cl.Gv, cl.u_ref
     if start == "rest":
@@ -274,18 +266,15 @@ def simulate_cycle(
     return CycleSimulation(res.t, res.u, res.v, w, res.u[:, list(fl.rotor)], cl.tau_ff[k] + fb, S, periods)
 
 
+@analysis
 def closed_loop_multipliers(
-    params: Params | Setup,
+    setup: Setup | Params,
     servo: Servo,
     damping: Callable[[ArrayLike], NDArray] | None = None,
-    *,
-    steps_per_period: int | None = None,
-    crank_speed_rpm: float | None = None,
-    scheme: Scheme | None = None,
 ) -> NDArray[np.complex128]:
     """Floquet multipliers of the closed loop of :func:`simulate_cycle` over one period.
 
-    ``mu = closed_loop_multipliers(params, servo, damper)``; the loop is stable along the
+    ``mu = closed_loop_multipliers(setup, servo, damper)``; the loop is stable along the
     motion (every start transient decays, and the simulation reaches its periodic steady
     state) if and only if ``abs(mu).max() < 1``.  The frozen-time designs say nothing about
     this: a time-varying plant can be unstable although every frozen closed loop is stable.
@@ -304,7 +293,7 @@ def closed_loop_multipliers(
         transient is their largest modulus; a start transient falls by ``1e-3`` in about
         ``log(1e-3) / log(max |mu|)`` periods.
     """
-    cl = _closed_loop(params, servo, damping, None, steps_per_period, crank_speed_rpm, scheme)
+    cl = _closed_loop(setup, servo, damping, None)
     sd, n = cl.step_data, cl.linkage.n
     res = integrate(System(sd.M[0], sd.C[0], sd.K[0]), np.zeros(n), np.zeros(n), 0.0, cl.dt, cl.steps, cl.scheme,
                     step_data=sd, sensitivity=True, store="last")

@@ -80,16 +80,18 @@ def _file(name: str, path: str | Path) -> Path:
     return p
 
 
-def figure6_curves(params: Params, steps_per_period: int = FIGURE6_STEPS) -> pd.DataFrame:
+def figure6_curves(params: Params) -> pd.DataFrame:
     """Midpoint displacements (µm) of L2 and L3 over one steady period (Figure 6).
 
     Columns ``crank angle (deg)`` and ``<link> <direction> (um)`` for L2, L3 and the
     directions of :meth:`fivebar.response.Response.midpoint_mm` (transverse, longitudinal,
-    chord).  The steady state is :func:`fivebar.steady.steady_state` at ``steps_per_period``.
+    chord).  The steady state is :func:`fivebar.steady.steady_state` of
+    ``Setup(params, steps_per_period=FIGURE6_STEPS)`` (the data set's fine step).
     """
+    from .setup import Setup
     from .steady import steady_state
 
-    res = steady_state(_params(params), steps_per_period=steps_per_period)
+    res = steady_state(Setup(_params(params), steps_per_period=FIGURE6_STEPS))
     out = {"crank angle (deg)": res.crank_angle_deg}
     for link in ("L2", "L3"):
         for direction in ("transverse", "longitudinal", "chord"):
@@ -127,13 +129,14 @@ def resonance_speeds_table(params: Params) -> pd.DataFrame:
 def sweep_table(params: Params, speeds_rpm=SWEEP_SPEEDS_RPM) -> pd.DataFrame:
     """Steady-state peak-to-peak midpoint amplitudes of L2, L3 over crank speeds.
 
-    :func:`fivebar.sweep.speed_sweep` with its defaults (linear, with the motors, S = 100,
-    generalised-alpha): the columns of :func:`fivebar.sweep.sweep_point`, whose validity
-    columns (``valid``, ``stress / yield``, ``deflection / length``) mark the rows outside the
+    :func:`fivebar.sweep.speed_sweep` of ``Setup(params, nonlinear=False)`` (the linear model,
+    with the motors, the parameter file's S and scheme): the columns of
+    :func:`fivebar.sweep.sweep_point`, whose validity columns (``valid``, ``stress / yield``, ``deflection / length``) mark the rows outside the
     model's range (the sweep's warning is not repeated).
     """
     from concurrent.futures import ProcessPoolExecutor
 
+    from .setup import Setup
     from .sweep import ignore_sigint, speed_sweep
 
     _params(params)
@@ -142,7 +145,8 @@ def sweep_table(params: Params, speeds_rpm=SWEEP_SPEEDS_RPM) -> pd.DataFrame:
     with ProcessPoolExecutor(max_workers=2, initializer=ignore_sigint) as pool:  # as chapter 07 does
         with warnings.catch_warnings():  # the table's columns 'valid', 'stress / yield', ... say it
             warnings.simplefilter("ignore", ValidityWarning)
-            return speed_sweep(params, speeds_rpm, executor=pool, progress=False, cache=False)
+            return speed_sweep(Setup(params, nonlinear=False), speeds_rpm, executor=pool, progress=False,
+                               cache=False)
 
 
 @dataclass(frozen=True)
@@ -163,7 +167,7 @@ DATASETS: dict[str, Dataset] = {
     for d in (
         Dataset("figure6_curves", "Figure 6: midpoint displacements of L2 and L3 over one period (µm)",
                 "09_figure6", figure6_curves,
-                f"fivebar.datasets.figure6_curves(params): steady_state(params, steps_per_period={FIGURE6_STEPS})"),
+                f"fivebar.datasets.figure6_curves(params): steady_state(Setup(params, steps_per_period={FIGURE6_STEPS}))"),
         Dataset("natural_frequencies", "Six lowest natural frequencies along the cycle (Hz), every degree",
                 "05_modes", frequencies_table,
                 "fivebar.datasets.frequencies_table(params): frequencies_along_cycle(params, 0..360 deg, n_modes=6)"),
@@ -172,7 +176,7 @@ DATASETS: dict[str, Dataset] = {
                 "fivebar.datasets.resonance_speeds_table(params): resonance_speeds(params)"),
         Dataset("speed_sweep", "Steady-state midpoint amplitude of L2, L3 over 600-3300 r/min",
                 "07_excitation", sweep_table,
-                "fivebar.datasets.sweep_table(params): speed_sweep(params, linspace(600, 3300, 120))"),
+                "fivebar.datasets.sweep_table(params): speed_sweep(Setup(params, nonlinear=False), linspace(600, 3300, 120))"),
     )
 }
 

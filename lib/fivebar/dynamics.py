@@ -56,6 +56,7 @@ from .newmark import _blas_threads
 from .systems import PeriodicStepData
 from .nonlinear import ElementGeometry, NonlinearForce
 from .params import Params
+from .setup import Setup, as_setup
 
 __all__ = ["LinkageDynamics", "modal_damping"]
 
@@ -103,49 +104,40 @@ def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
 class LinkageDynamics:
     """Equation (2.7) of the linkage subsystem, sampled at the S steps of one period.
 
-    ``dyn = LinkageDynamics(params)``; ``dyn.step_data`` feeds
-    :func:`fivebar.newmark.integrate`, and ``dyn`` itself is a
+    ``dyn = LinkageDynamics(setup)`` (or ``setup.dynamics()``, the same built once and kept);
+    ``dyn.step_data`` feeds :func:`fivebar.newmark.integrate`, and ``dyn`` itself is a
     :class:`fivebar.systems.SecondOrderSystem` (matrices at any time, nonlinear force).
 
     Parameters
     ----------
-    params
-        Parameter set.
-    crank_speed_rpm
-        Speed of crank AB (r/min); ``None`` takes the parameters' assumption.
-    steps_per_period
-        S of (4.1); ``None`` takes the parameters' (100, section 5).
-    motors
-        Include the motor shafts' torsion (crank roots tied to it); ``False`` clamps the roots.
-    nonlinear
-        Include the geometric nonlinearity f_nl; ``False`` drops it.
-    elements_per_link
-        Mesh (default the paper's 1-2-2-1).
+    setup
+        The problem, a :class:`fivebar.setup.Setup` (its parameters, crank speed, S, motors,
+        nonlinearity and mesh), or a Params meaning ``Setup(params)``.
     P
         Optional external force on the kept DOFs, a function of time ``t -> (n,)`` (N, N m).
+
+    Attributes
+    ----------
+    setup
+        The problem.
+    steps_per_period
+        S, the steps of one period.
     """
 
-    def __init__(
-        self,
-        params: Params,
-        crank_speed_rpm: float | None = None,
-        steps_per_period: int | None = None,
-        motors: bool = True,
-        nonlinear: bool = True,
-        elements_per_link: tuple[int, int, int, int] | None = None,
-        P=None,
-    ) -> None:
+    def __init__(self, setup: Setup | Params, P=None) -> None:
+        setup = as_setup(setup)
+        setup._check_memory()
+        params, crank_speed_rpm = setup.params, setup.crank_speed_rpm
+        elements_per_link, motors, nonlinear = setup.elements_per_link, setup.motors, setup.nonlinear
         speed_free = None
         if crank_speed_rpm is not None:
             speed_free = _speed_free(params)  # the same for every speed: found in the cache
             params = _at_speed(params, crank_speed_rpm)
-        S = params.steps_per_period if steps_per_period is None else steps_per_period
-        if isinstance(S, bool) or int(S) != S or S < 2:
-            raise InputError(f"steps_per_period = {steps_per_period!r} is not allowed: give an integer >= 2")
+        self.setup = setup
         self.params = params
-        self.steps = int(S)
+        self.steps_per_period = S = setup.steps_per_period
         self.period = params.period
-        self.dt = self.period / self.steps
+        self.dt = self.period / S
         # the model (element matrices, mesh) does not depend on the speed: one per geometry
         self.model: Model = _model(params if speed_free is None else speed_free, elements_per_link, bool(motors))
         rotor = {d for i in self.model.motor_dofs for d in self.model.motor_dofs[i][:2]}
@@ -154,7 +146,7 @@ class LinkageDynamics:
         self.n = len(self.keep)
         self._P = P
         self._nl = NonlinearForce(self.model, keep=self.keep) if nonlinear else None
-        t = np.arange(self.steps) * self.dt
+        t = np.arange(self.steps_per_period) * self.dt
         self.t = t
         self._key = None  # the sample cache's key (None: not cached)
         with _blas_threads(1):  # many small dense problems: threaded BLAS only adds overhead
@@ -184,8 +176,8 @@ class LinkageDynamics:
         if self._P is not None or self.params.damping_model == "stiffness":
             return self._sample(t)  # (stiffness damping: K holds a term linear in the speed)
         p = self.params
-        key = (_SAMPLES, _speed_free(p) if speed_free is None else speed_free, self.steps, elements_per_link,
-               bool(motors))
+        key = (_SAMPLES, _speed_free(p) if speed_free is None else speed_free, self.steps_per_period,
+               elements_per_link, bool(motors))
         try:
             hash(key)
         except TypeError:  # an unhashable parameter set: no cache
@@ -216,7 +208,7 @@ class LinkageDynamics:
         S / 2 new ones) when the cache holds them: the step times k T / S are the even ones
         of k T / (2 S), to the last bit (halving is exact), so halving or doubling S, as
         :func:`fivebar.steady.steady_state` does to reach a tolerance, samples no time twice."""
-        S = self.steps
+        S = self.steps_per_period
         fine = STORE.lookup(key[:2] + (2 * S,) + key[3:], touch=False)
         if fine is not None:
             out = tuple(np.ascontiguousarray(X[::2]) for X in fine)
@@ -326,7 +318,7 @@ class LinkageDynamics:
         times (then the Python loop serves, with ``nonlinear``).
         """
         sd = step_data
-        if (self._nl is None or sd is None or sd.steps != self.steps or sd.t0 != 0.0
+        if (self._nl is None or sd is None or sd.steps != self.steps_per_period or sd.t0 != 0.0
                 or abs(sd.period - self.period) > 1e-12 * self.period):
             return None
         if self._elements is None:
@@ -348,7 +340,7 @@ class LinkageDynamics:
             if self._geometry is None:
                 self._geometry = self._at_step_times(
                     "geometry", lambda: self._nl.geometry(*self.crank_angles(self.t)))
-            return self._geometry.at(k % self.steps)
+            return self._geometry.at(k % self.steps_per_period)
         th1, th4 = self.crank_angles(t)
         return self._nl.geometry(float(th1), float(th4))
 
@@ -379,7 +371,7 @@ class LinkageDynamics:
         x = float(t) / self.dt
         k = round(x)
         if abs(x - k) <= 1e-9 * max(1.0, abs(x)):  # a step time: the sampled matrices
-            K, F = self.step_data.K[k % self.steps], self.step_data.F[k % self.steps]
+            K, F = self.step_data.K[k % self.steps_per_period], self.step_data.F[k % self.steps_per_period]
         else:
             _, _, K, F = self._sample(np.asarray(float(t)))
         if self._nl is None:

@@ -425,7 +425,7 @@ def modal_basis(
         raise ExcitationError(f"kind = {kind!r} is not allowed: use one of {list(_BASES)}")
     if isinstance(n_modes, bool) or int(n_modes) != n_modes or not 1 <= n_modes <= dyn.n:
         raise ExcitationError(f"n_modes = {n_modes!r} is not allowed: give an integer 1..{dyn.n}")
-    S = dyn.steps
+    S = dyn.steps_per_period
     if isinstance(reference_step, bool) or int(reference_step) != reference_step or not 0 <= reference_step < S:
         raise ExcitationError(f"reference_step = {reference_step!r} is not allowed: give an integer 0..{S - 1}")
     sd = dyn.step_data

@@ -16,10 +16,9 @@ import numpy as np
 import pandas as pd
 
 from .errors import FivebarError
-from .schemes import Scheme
 from .params import Params
 from .rigid import motor_torques
-from .setup import PAPER_SCHEME
+from .setup import Setup, analysis, as_setup
 from .steady import SteadyState, steady_state
 
 __all__ = ["Variant", "ASSUMPTION_VARIANTS", "assumption_effects", "speed_table"]
@@ -84,34 +83,40 @@ def _row(res: SteadyState) -> dict[str, float]:
     }
 
 
-def assumption_effects(
-    params: Params,
-    variants: tuple[Variant, ...] = ASSUMPTION_VARIANTS,
-    steps_per_period: int | None = None,
-    nonlinear: bool = True,
-    scheme: Scheme | None = None,
-) -> pd.DataFrame:
-    """Peak-to-peak midpoint deflections and peak bending stress, ``params`` and each variant.
+def _variant(s: Setup, v: Variant) -> Setup:
+    """The problem ``s`` with the variant's parameter changes (a changed crank speed included)
+    and model switches."""
+    p = v.params(s.run_params)
+    return s.replace(params=p, crank_speed_rpm=p.crank_speed_rpm, motors=s.motors and v.motors)
 
-    ``df = assumption_effects(params)``: one row for ``params`` ("(defaults)") and one per
+
+@analysis
+def assumption_effects(
+    setup: Setup | Params,
+    variants: tuple[Variant, ...] = ASSUMPTION_VARIANTS,
+) -> pd.DataFrame:
+    """Peak-to-peak midpoint deflections and peak bending stress, the problem and each variant.
+
+    ``df = assumption_effects(setup)``: one row for the problem ("(defaults)") and one per
     variant that differs from it (a variant whose changes are the values already chosen is
     left out), with the change of the L2 and L3 transverse peak-to-peak deflection from the
-    first row (%).  The steady states come from :func:`fivebar.steady.steady_state` with the
-    geometric nonlinearity and the library's default step and scheme (converged for any
-    sensible parameters; the paper's S = 100 and rule fail where the deflections are large,
-    and the linear model is then far off: 19.6 against 12.6 mm at 120 r/min with the 2 mm
-    side in the plane).  A variant without a periodic steady state (shooting fails, for example
+    first row (%).  The steady states come from :func:`fivebar.steady.steady_state` of the
+    problem (a :class:`fivebar.setup.Setup`, or a Params: ``Setup(params)``, the geometric
+    nonlinearity and the library's default step and scheme, converged for any sensible
+    parameters; the paper's S = 100 and rule fail where the deflections are large, and the
+    linear model is then far off: 19.6 against 12.6 mm at 120 r/min with the 2 mm side in
+    the plane), each variant's with its changes.  A variant without a periodic steady state (shooting fails, for example
     past a divergence, or the variant's linkage cannot run through the cycle) gets NaN and says so in the column ``note`` (empty otherwise).
     """
+    s = as_setup(setup)
     rows = []
-    base = _row(steady_state(params, steps_per_period=steps_per_period, nonlinear=nonlinear, scheme=scheme))
+    base = _row(steady_state(s))
     rows.append({"assumption": "(defaults)", "alternative": "", **base})
     for v in variants:
-        if v.is_base(params):
+        if v.is_base(s.run_params):
             continue
         try:
-            res = steady_state(v.params(params), steps_per_period=steps_per_period, motors=v.motors,
-                               nonlinear=nonlinear, scheme=scheme)
+            res = steady_state(_variant(s, v))
         except FivebarError as e:  # shooting fails, or the linkage cannot run through the cycle
             rows.append({"assumption": v.assumption, "alternative": v.label, **dict.fromkeys(base, np.nan),
                          "in link": "", "note": f"no periodic steady state found ({type(e).__name__})"})
@@ -125,24 +130,23 @@ def assumption_effects(
     return df
 
 
-def speed_table(
-    params: Params,
-    speeds_rpm: tuple[float, ...],
-    steps_per_period: int = 100,
-    nonlinear: bool = False,
-    scheme: Scheme = PAPER_SCHEME,
-) -> pd.DataFrame:
+@analysis
+def speed_table(setup: Setup | Params, speeds_rpm: tuple[float, ...]) -> pd.DataFrame:
     """Deflections, peak bending stress and peak drive torques at several crank speeds.
 
-    The torques are the rigid-body inverse dynamics (:func:`fivebar.rigid.motor_torques`)
-    over one period; the table sets them against motor 1's printed stall torque and the
-    stress against the assumed yield stress.  Steady states as in :func:`assumption_effects`
-    (the paper's S = 100 and rule by default).
+    ``speed_table(fivebar.Setup(params, steps_per_period=100, nonlinear=False,
+    scheme=fivebar.PAPER_SCHEME), (30, 60, 120))``: the steady states of the problem (a
+    :class:`fivebar.setup.Setup` or a Params) at each speed.  The torques are the rigid-body
+    inverse dynamics (:func:`fivebar.rigid.motor_torques`) over one period; the table sets
+    them against motor 1's printed stall torque and the stress against the assumed yield
+    stress.
     """
+    s = as_setup(setup)
     rows = []
     for rpm in speeds_rpm:
-        p = params.replace(crank_speed_rpm=rpm)
-        res = steady_state(p, steps_per_period=steps_per_period, nonlinear=nonlinear, scheme=scheme)
+        at = s.replace(crank_speed_rpm=rpm)
+        p = at.run_params
+        res = steady_state(at)
         tau = np.abs(motor_torques(p, np.linspace(0.0, p.period, 181))).max(axis=0)
         row = {"crank speed (r/min)": rpm, **_row(res)}
         row["stress / yield"] = row["peak bending stress (MPa)"] * 1e6 / p.yield_stress

@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 from .modal_equations import Harmonic, ModalSystem, MultiscaleError, Parametric
 from .multiscale import DEFAULT_DETUNING, ModulationSteadyState, SlowFlow, modulation_equations
 from .response import Response
+from .setup import analysis, as_setup
 
 __all__ = [
     "ModalModel",
@@ -309,14 +310,11 @@ class MultipleScalesResponse(Response):
     detuning: float = float("nan")
 
 
+@analysis
 def multiple_scales(
-    params=None,
-    crank_speed_rpm: float | None = None,
+    setup,
     *,
     n_modes: int = 2,
-    steps_per_period: int | None = None,
-    motors: bool | None = None,
-    nonlinear: bool | None = None,
     basis: str = "instantaneous",
     frequencies: str = "mean",
     kinematic: bool = True,
@@ -324,13 +322,12 @@ def multiple_scales(
     fourier_terms: int | None = None,
     detuning: float | None = None,
     guess: ArrayLike | None = None,
-    dynamics=None,
 ):
     r"""The multiple-scales first approximation (3.6)-(3.7) of the linkage's steady response.
 
     Call forms::
 
-        ms = multiple_scales(params)                     # default speed, 2 modes
+        ms = multiple_scales(setup)                      # the set-up's speed, 2 modes
         ms.midpoint_mm("L2", "transverse")                  # mm over S + 1 samples, as fivebar.SteadyState
         ms.slow.a, ms.slow.theta0, ms.slow.stable        # a_r, theta_r by Newton-Raphson
         ms.u[0], ms.v[0]                                 # initial state of multiple-scales-Newmark
@@ -344,44 +341,28 @@ def multiple_scales(
 
     Parameters
     ----------
-    params : Params or Setup
-        The set-up (:class:`fivebar.setup.Setup`; a Params takes the parameter file's settings).
-        Ignored when ``dynamics`` is given.
-    crank_speed_rpm : float, optional
-        Speed of both cranks (r/min).
+    setup : Setup or Params
+        The problem (:class:`fivebar.setup.Setup`: crank speed, S, motors, mesh, and
+        ``nonlinear``, which also switches the modal coefficients :math:`\delta, \gamma`; a
+        Params means ``Setup(params)``).
     n_modes, basis, frequencies, kinematic, parametric, fourier_terms
         See :func:`modal_model` (default: the paper's frequency means (3.3)).
-    steps_per_period, motors, nonlinear
-        Override the set-up's fields (``None`` keeps them; ``nonlinear`` also switches the
-        modal coefficients :math:`\delta, \gamma`).
     detuning : float, optional
         Relative resonance tolerance.  Default :func:`default_detuning`, halved (up to nine
         times) while weak combination terms of different modes ask for incompatible rotating
         frames; a given value is used as is.
     guess : array_like (k,) complex, optional
         Start of Newton-Raphson for the slow-flow amplitudes (default 0).
-    dynamics : LinkageDynamics, optional
-        Reuse an existing model.
 
     Returns
     -------
     MultipleScalesResponse
         A :class:`fivebar.response.Response`.
     """
-    from .setup import as_setup
-
-    if dynamics is None:
-        if params is None:
-            raise MultiscaleError(
-                "params = None is not allowed without dynamics: give a Params or a Setup, or an existing "
-                "dynamics=LinkageDynamics"
-            )
-        dynamics = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
-                            motors=motors, nonlinear=nonlinear).dynamics()
-    dyn = dynamics
+    dyn = as_setup(setup).dynamics()
     model = modal_model(
         dyn, n_modes, basis=basis, frequencies=frequencies, kinematic=kinematic, fourier_terms=fourier_terms,
-        nonlinear=nonlinear is not False and dyn.nonlinear is not None, parametric=parametric,
+        nonlinear=dyn.nonlinear is not None, parametric=parametric,
     )
     if detuning is not None and (
         isinstance(detuning, bool) or not isinstance(detuning, (int, float, np.floating)) or not (np.isfinite(detuning) and detuning >= 0)
@@ -395,7 +376,7 @@ def multiple_scales(
         # weak combination terms with incompatible detunings: narrow the tolerance
         tol *= 0.5
     slow = flow.steady_state(guess)
-    S = dyn.steps
+    S = dyn.steps_per_period
     t = np.arange(S + 1) * dyn.dt
     eta = slow.eta(t).T  # (S+1, k)
     eta_dot = slow.eta_dot(t).T
@@ -421,19 +402,23 @@ def _energy_distance(dyn, u: Array, v: Array, ref) -> float:
     return float(e / scale)
 
 
-def initial_state(dyn, start: str = "multiple scales", **kwargs) -> tuple[Array, Array]:
+@analysis
+def initial_state(setup, start: str = "multiple scales", **kwargs) -> tuple[Array, Array]:
     r"""Initial state :math:`(\mathbf u_0, \dot{\mathbf u}_0)` at t = 0 for marching to the steady state.
 
     Parameters
     ----------
-    dyn : LinkageDynamics
+    setup : Setup or Params
+        The problem.
     start : {"multiple scales", "rest", "quasi-static"}
         "multiple scales": the first approximation (3.7) at t = 0 (the paper's section 4,
         :func:`multiple_scales`, keyword arguments passed on); "rest": zeros; "quasi-static":
         :math:`\mathbf K(0)^{-1}\mathbf F(0)` with its time derivative (central difference).
     """
+    setup = as_setup(setup)
+    dyn = setup.dynamics()
     if start == "multiple scales":
-        ms = multiple_scales(dynamics=dyn, **kwargs)
+        ms = multiple_scales(setup, **kwargs)
         return ms.u[0].copy(), ms.v[0].copy()
     if start == "rest":
         return np.zeros(dyn.n), np.zeros(dyn.n)
@@ -444,18 +429,13 @@ def initial_state(dyn, start: str = "multiple scales", **kwargs) -> tuple[Array,
     raise MultiscaleError(f"start = {start!r} is not allowed: use 'multiple scales', 'rest' or 'quasi-static'")
 
 
+@analysis
 def multiple_scales_newmark(
-    params=None,
-    crank_speed_rpm: float | None = None,
+    setup,
     *,
     tol: float = 1e-4,
     max_periods: int = 500,
-    scheme=None,
     start: str = "multiple scales",
-    steps_per_period: int | None = None,
-    motors: bool | None = None,
-    nonlinear: bool | None = None,
-    dynamics=None,
     **kwargs,
 ):
     r"""The paper's multiple-scales-Newmark method (section 4): (3.7) at t = 0, then Newmark.
@@ -463,8 +443,8 @@ def multiple_scales_newmark(
     The first approximation at :math:`t = 0` (:func:`multiple_scales`, ``**kwargs`` passed on)
     is the initial state; the implicit scheme marches period after period
     (:func:`fivebar.steady.march`) until the state repeats to ``tol`` (relative change over one
-    period in the energy norm).  ``params`` is a :class:`fivebar.setup.Setup` or a Params; the
-    scheme and S default to the set-up's (the parameter file's generalised-alpha: the paper's
+    period in the energy norm).  ``setup`` is a :class:`fivebar.setup.Setup` or a Params; the
+    scheme and S are the set-up's (by default the parameter file's generalised-alpha: the paper's
     average-acceleration rule at S = 100 has an unstable discrete periodic orbit for this
     model, errata E26, so marching with it diverges).
 
@@ -473,40 +453,28 @@ def multiple_scales_newmark(
     fivebar.steady.SteadyState
         ``method == "march"``; ``periods`` is the number of periods marched.
     """
-    from .setup import as_setup, default_scheme
     from .steady import march
 
-    if dynamics is None:
-        if params is None:
-            raise MultiscaleError(
-                "params = None is not allowed without dynamics: give a Params or a Setup, or an existing "
-                "dynamics=LinkageDynamics"
-            )
-        setup = as_setup(params, crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
-                         motors=motors, nonlinear=nonlinear, scheme=scheme)
-        dynamics, scheme = setup.dynamics(), setup.scheme
-    scheme = default_scheme(dynamics.params) if scheme is None else scheme
-    u0, v0 = initial_state(dynamics, start, **kwargs)
-    return march(dynamics, u0, v0, tol=tol, max_periods=max_periods, scheme=scheme)
+    u0, v0 = initial_state(setup, start, **kwargs)
+    return march(setup, u0, v0, tol=tol, max_periods=max_periods)
 
 
+@analysis
 def compare_starts(
-    params,
+    setup,
     speeds_rpm: ArrayLike,
     *,
     starts: Sequence[str] = ("multiple scales", "rest", "quasi-static"),
     tol: float = 1e-4,
     max_periods: int = 500,
-    scheme=None,
-    nonlinear: bool | None = None,
-    steps_per_period: int | None = None,
     links: Sequence[str] = ("L2", "L3"),
     **kwargs,
 ):
     r"""Periods Newmark needs to reach the steady state from several starts, and the error of
     the multiple-scales approximation, at several crank speeds.
 
-    For every speed: the steady state by shooting (the reference, same scheme), the
+    For every speed (replacing the problem's, a :class:`fivebar.setup.Setup` or a Params):
+    the steady state by shooting (the reference, same scheme), the
     first approximation (:func:`multiple_scales`, ``**kwargs``), and :func:`fivebar.steady.march`
     from each start until the relative change over a period is below ``tol``.
 
@@ -522,22 +490,21 @@ def compare_starts(
     """
     import pandas as pd
 
-    from .setup import as_setup
     from .steady import march, shooting
 
-    base = as_setup(params, scheme=scheme, nonlinear=nonlinear, steps_per_period=steps_per_period, motors=True)
-    scheme = base.scheme
+    base = as_setup(setup)
     rows = []
     for s in np.atleast_1d(np.asarray(speeds_rpm, float)):
-        dyn = base.replace(crank_speed_rpm=float(s)).dynamics()
-        ref = shooting(dyn, scheme=scheme)
-        ms = multiple_scales(dynamics=dyn, **kwargs)
+        at = base.replace(crank_speed_rpm=float(s))
+        dyn = at.dynamics()
+        ref = shooting(at)
+        ms = multiple_scales(at, **kwargs)
         row = {"speed (r/min)": float(s)}
         for st in starts:
-            u0, v0 = (ms.u[0], ms.v[0]) if st == "multiple scales" else initial_state(dyn, st)
+            u0, v0 = (ms.u[0], ms.v[0]) if st == "multiple scales" else initial_state(at, st)
             row[f"start error {st}"] = _energy_distance(dyn, u0, v0, ref)
             try:
-                row[f"periods from {st}"] = march(dyn, u0, v0, tol=tol, max_periods=max_periods, scheme=scheme).periods
+                row[f"periods from {st}"] = march(at, u0, v0, tol=tol, max_periods=max_periods).periods
             except Exception:  # noqa: BLE001 - a failed march is a result here (NaN)
                 row[f"periods from {st}"] = np.nan
         for link in links:

@@ -53,7 +53,7 @@ from .errors import FivebarError
 from .dynamics import LinkageDynamics
 from .excitation import excitation_frequencies
 from .params import Params
-from .setup import Setup
+from .setup import Setup, analysis, as_setup
 
 if TYPE_CHECKING:  # drawing lives in fivebar.plotting; only the wrapper's annotations name it
     import matplotlib.pyplot as plt
@@ -203,63 +203,64 @@ def classify(
 
 # --- the linkage --------------------------------------------------------------------------------
 @memoised
-def _modal_data(params: Params, n_modes: int, steps: int, motors: bool) -> tuple[NDArray, NDArray]:
+def _modal_data(params: Params, n_modes: int, steps: int, motors: bool, elements_per_link) -> tuple[NDArray, NDArray]:
     from .excitation import modal_basis
 
-    dyn = LinkageDynamics(params, None, steps, motors, nonlinear=False)
+    dyn = LinkageDynamics(Setup(params, steps_per_period=steps, motors=motors, nonlinear=False,
+                                elements_per_link=elements_per_link))
     B = modal_basis(dyn, n_modes)
     h = np.diag(B.kinematic_stiffness.mean(axis=0)) / params.crank_speed_rad_s**2
     return B.omega, h
 
 
-def _data(params: Params, n_modes: int, steps: int | None, motors: bool) -> tuple[NDArray, NDArray]:
-    S = params.steps_per_period if steps is None else steps
+def _data(setup: Setup | Params, n_modes: int) -> tuple[NDArray, NDArray]:
+    s = as_setup(setup)
     if isinstance(n_modes, bool) or int(n_modes) != n_modes or n_modes < 1:
         raise ResonanceError(f"n_modes = {n_modes!r} is not allowed: give a positive integer")
-    if isinstance(S, bool) or int(S) != S or S < 2:
-        raise ResonanceError(f"steps = {steps!r} is not allowed: give an integer >= 2")
     # the configuration, hence the frequencies, do not depend on the speed: one cache entry
-    key = params.replace(crank_speed_rpm=60.0)
-    w, h = _modal_data(key, int(n_modes), int(S), bool(motors))
+    key = s.params.replace(crank_speed_rpm=60.0)
+    w, h = _modal_data(key, int(n_modes), s.steps_per_period, s.motors, s.elements_per_link)
     return w.copy(), h.copy()
 
 
-def linkage_frequencies(params: Params, n_modes: int = 4, steps: int | None = None, motors: bool = True) -> NDArray:
+@analysis
+def linkage_frequencies(setup: Setup | Params, n_modes: int = 4) -> NDArray:
     r"""Instantaneous natural frequencies (rad/s) of the linkage subsystem over one period.
 
     The eigenvalues of :math:`\mathbf K(t)\boldsymbol\phi = \omega^2\mathbf M(t)
     \boldsymbol\phi` on the DOFs of :class:`fivebar.dynamics.LinkageDynamics` (the rotor
-    whirl modes, which do not couple, are left out) at ``steps`` equally spaced crank angles
-    (default ``params.steps_per_period``); they do not depend on the crank speed.  Shape
-    (steps, n_modes), ascending in each row; the means over axis 0 are the paper's (3.3).
-    Cached in memory.
+    whirl modes, which do not couple, are left out) at the S equally spaced crank angles of the
+    problem (a :class:`fivebar.setup.Setup`, or a Params: S = ``params.steps_per_period``; its
+    motors and mesh); they do not depend on the crank speed.  Shape (S, n_modes), ascending in
+    each row; the means over axis 0 are the paper's (3.3).  Cached in memory.
     """
-    return _data(params, n_modes, steps, motors)[0]
+    return _data(setup, n_modes)[0]
 
 
-def spin_softening(params: Params, n_modes: int = 4, steps: int | None = None, motors: bool = True) -> NDArray:
+@analysis
+def spin_softening(setup: Setup | Params, n_modes: int = 4) -> NDArray:
     r"""The coefficients :math:`h_r = \bar H_{rr}/\Omega^2` of the kinematic stiffness (-).
 
     :math:`\mathbf H = \boldsymbol\Phi^\top\mathbf M\ddot{\boldsymbol\Phi}` of the
     instantaneous modes (:attr:`fivebar.excitation.ModalBasis.kinematic_stiffness`), averaged
     over the period and divided by :math:`\Omega^2` (it is proportional to it at constant crank
-    speed).  About -1 for a mode whose shape turns with the cranks.
+    speed).  About -1 for a mode whose shape turns with the cranks.  ``setup`` as for
+    :func:`linkage_frequencies`.
     """
-    return _data(params, n_modes, steps, motors)[1]
+    return _data(setup, n_modes)[1]
 
 
-def effective_frequencies(
-    params: Params, crank_speed_rpm: float | None = None, n_modes: int = 4, steps: int | None = None,
-    motors: bool = True,
-) -> NDArray:
-    r"""Effective natural frequencies :math:`\sqrt{\bar\omega_r^2 + h_r\Omega^2}` (rad/s).
+@analysis
+def effective_frequencies(setup: Setup | Params, n_modes: int = 4) -> NDArray:
+    r"""Effective natural frequencies :math:`\sqrt{\bar\omega_r^2 + h_r\Omega^2}` (rad/s) at
+    the problem's crank speed (``effective_frequencies(setup.replace(crank_speed_rpm=600))``).
 
     The paper's means (3.3) corrected by the mean kinematic stiffness (:func:`spin_softening`);
     NaN past the speed at which the mode's effective stiffness vanishes.
     """
-    p = params if crank_speed_rpm is None else params.replace(crank_speed_rpm=crank_speed_rpm)
-    w, h = _data(p, n_modes, steps, motors)
-    w2 = w.mean(axis=0) ** 2 + h * p.crank_speed_rad_s**2
+    s = as_setup(setup)
+    w, h = _data(s, n_modes)
+    w2 = w.mean(axis=0) ** 2 + h * s.run_params.crank_speed_rad_s**2
     return np.sqrt(np.where(w2 > 0, w2, np.nan))
 
 
@@ -279,18 +280,9 @@ def _linkage_excitations(params: Params, crank_speed_rpm: float | None, motor_fi
     return out
 
 
-def _as_params(setup, crank_speed_rpm: float | None = None) -> Params:
-    """The parameters of a Setup or Params at its crank speed, with its S (steps_per_period)."""
-    from .setup import as_setup
-
-    st = as_setup(setup, crank_speed_rpm=crank_speed_rpm)
-    p = st.run_params
-    return p if p.steps_per_period == st.steps_per_period else p.replace(steps_per_period=st.steps_per_period)
-
-
+@analysis
 def resonance_table(
-    params: Params | Setup,
-    crank_speed_rpm: float | None = None,
+    setup: Setup | Params,
     *,
     n_modes: int = 4,
     tolerance: float = 0.03,
@@ -300,7 +292,10 @@ def resonance_table(
     frequencies: str = "mean",
     **kwargs,
 ) -> pd.DataFrame:
-    r"""The resonance conditions of section 3 that hold for the linkage at a crank speed.
+    r"""The resonance conditions of section 3 that hold for the linkage at the problem's crank speed.
+
+    ``resonance_table(setup.replace(crank_speed_rpm=600))``; ``setup`` a
+    :class:`fivebar.setup.Setup` (its crank speed, S, motors, mesh) or a Params (``Setup(params)``).
 
     Natural frequencies: the means (3.3) of the ``n_modes`` lowest instantaneous frequencies of
     the linkage subsystem (:func:`linkage_frequencies`).  Excitations: the frequencies of
@@ -308,14 +303,14 @@ def resonance_table(
     e.g. "nu1=nu2=nu3"); ``motor_fields`` adds the motors' field frequencies (which drive only
     the decoupled rotors).  ``harmonics`` defaults to ``params.fourier_terms``.
     ``frequencies="effective"`` uses :func:`effective_frequencies` (spin softening) instead of
-    the paper's means.  Other keyword arguments go to :func:`classify`.  ``params`` may be a
-    :class:`fivebar.setup.Setup` (its crank speed and S are used).
+    the paper's means.  Other keyword arguments go to :func:`classify`.
     """
-    p = _as_params(params, crank_speed_rpm)
+    s = as_setup(setup)
+    p = s.run_params
     if frequencies == "mean":
-        w = linkage_frequencies(p, n_modes).mean(axis=0)
+        w = linkage_frequencies(s, n_modes).mean(axis=0)
     elif frequencies == "effective":
-        w = effective_frequencies(p, None, n_modes)
+        w = effective_frequencies(s, n_modes)
         if np.any(np.isnan(w)):
             raise ResonanceError(f"at {p.crank_speed_rpm:g} r/min a mode's effective stiffness is negative "
                                  "(past its spin-softening limit): no effective frequency")
@@ -326,8 +321,9 @@ def resonance_table(
     return classify(w, exc, harmonics=m, tolerance=tolerance, **kwargs)
 
 
+@analysis
 def resonance_speeds(
-    params: Params,
+    setup: Setup | Params,
     *,
     n_modes: int = 3,
     harmonics: int | None = None,
@@ -345,7 +341,8 @@ def resonance_speeds(
     means (3.3); ``"effective"``: :math:`w_r(\Omega) = \sqrt{\bar\omega_r^2 + h_r\Omega^2}`
     (:func:`effective_frequencies`), which also adds, for :math:`h_r < 0`, the speed
     :math:`\bar\omega_r/\sqrt{-h_r}` at which the mode's effective stiffness vanishes (type
-    "divergence").
+    "divergence").  ``setup``: the problem (its S, motors and mesh; its speed is not used), a
+    :class:`fivebar.setup.Setup` or a Params.
 
     Returns
     -------
@@ -356,11 +353,12 @@ def resonance_speeds(
     """
     if frequencies not in ("mean", "effective"):
         raise ResonanceError(f"frequencies = {frequencies!r} is not allowed: use 'mean' or 'effective'")
-    w, h = _data(params, n_modes, None, True)
+    s = as_setup(setup)
+    w, h = _data(s, n_modes)
     w = w.mean(axis=0)
     if frequencies == "mean":
         h = np.zeros_like(h)
-    m = params.fourier_terms if harmonics is None else int(harmonics)
+    m = s.params.fourier_terms if harmonics is None else int(harmonics)
     lim = np.where(h < 0, w / np.sqrt(np.where(h < 0, -h, 1.0)), np.inf)  # divergence speeds (rad/s)
 
     def weff(r: int, W: float) -> float:
@@ -443,8 +441,9 @@ class CampbellData:
         return xr[ok], y[ok]
 
 
+@analysis
 def campbell_data(
-    params: Params | Setup,
+    setup: Setup | Params,
     speeds_rpm: ArrayLike,
     *,
     n_modes: int = 3,
@@ -452,22 +451,24 @@ def campbell_data(
 ) -> CampbellData:
     """Natural frequencies against crank speed, with the lines k Omega: the numbers.
 
-    ``cd = campbell_data(params, speeds)``; ``fivebar.plotting.campbell_plot(cd)`` draws them.
-    The frequencies over a turn come from :func:`linkage_frequencies` (S samples of the
-    parameter file) and do not depend on the speed; ``harmonics`` is m (default
-    ``params.fourier_terms``).  ``params`` may be a :class:`fivebar.setup.Setup` (its S is used).
+    ``cd = campbell_data(setup, speeds)``; ``fivebar.plotting.campbell_plot(cd)`` draws them.
+    The frequencies over a turn come from :func:`linkage_frequencies` (the S samples of the
+    problem, a :class:`fivebar.setup.Setup` or a Params) and do not depend on the speed;
+    ``harmonics`` is m (default ``params.fourier_terms``).
     """
-    params = _as_params(params)
+    s = as_setup(setup)
+    params = s.params
     x = np.asarray(speeds_rpm, float)
     if x.ndim != 1 or x.size < 2 or np.any(x <= 0):
         raise ResonanceError(f"speeds_rpm must be a 1-D array of positive speeds (r/min), got {speeds_rpm!r}")
     m = params.fourier_terms if harmonics is None else int(harmonics)
-    f = linkage_frequencies(params, n_modes) / (2 * np.pi)
-    return CampbellData(x, f, f.min(0), f.mean(0), f.max(0), spin_softening(params, n_modes), m)
+    f = linkage_frequencies(s, n_modes) / (2 * np.pi)
+    return CampbellData(x, f, f.min(0), f.mean(0), f.max(0), spin_softening(s, n_modes), m)
 
 
+@analysis
 def campbell_diagram(
-    params: Params,
+    setup: Setup | Params,
     speeds_rpm: ArrayLike,
     *,
     n_modes: int = 3,
@@ -480,5 +481,5 @@ def campbell_diagram(
     :func:`fivebar.plotting.campbell_plot` (see both).  Returns the matplotlib Axes."""
     from .plotting import campbell_plot
 
-    data = campbell_data(params, speeds_rpm, n_modes=n_modes, harmonics=harmonics)
+    data = campbell_data(setup, speeds_rpm, n_modes=n_modes, harmonics=harmonics)
     return campbell_plot(data, ax=ax, mark=mark, effective=effective)

@@ -40,7 +40,7 @@ from .errors import ComputationError, InputError, array, number
 from .newmark import integrate
 from .schemes import Scheme
 from .params import Params
-from .setup import Setup
+from .setup import Setup, analysis
 
 __all__ = ["DIRECTIONS", "Response", "quasi_static", "radau", "transient"]
 
@@ -66,7 +66,7 @@ class Response:
         What computed it: "shooting", "march", "continuation" (steady states), "transient",
         "quasi-static", "radau", "multiple scales", or the name given.
     setup
-        The :class:`fivebar.setup.Setup` solved (None when a LinkageDynamics was given).
+        The :class:`fivebar.setup.Setup` solved (``dynamics.setup``).
     scheme
         The time integrator (None where none was used).
     solver
@@ -80,7 +80,6 @@ class Response:
     u: NDArray
     v: NDArray
     method: str = "response"
-    setup: Setup | None = field(default=None, repr=False, kw_only=True)
     scheme: Scheme | None = field(default=None, kw_only=True)
     solver: Any = field(default=None, repr=False, kw_only=True)
     _cache: dict = field(default_factory=dict, repr=False, kw_only=True)
@@ -97,6 +96,11 @@ class Response:
 
     # --- what it is ---------------------------------------------------------------------------
     @property
+    def setup(self) -> Setup:
+        """The problem solved (``dynamics.setup``)."""
+        return self.dynamics.setup
+
+    @property
     def params(self) -> Params:
         """The parameter set of the model (``dynamics.params``)."""
         return self.dynamics.params
@@ -111,7 +115,7 @@ class Response:
         as a Response of the same method (a response sampled at the S step times per period,
         as :func:`transient` gives)."""
         dyn = self.dynamics
-        S = dyn.steps
+        S = dyn.steps_per_period
         n_periods = (len(self.t) - 1) // S
         k = number("k", k, integer=True, low=0, high=max(n_periods - 1, 0))
         i = k * S
@@ -119,7 +123,7 @@ class Response:
             raise InputError(f"k = {k!r} is not allowed: this response ({len(self.t)} samples) does not hold "
                              f"period {k} sampled at the S = {S} step times")
         sl = slice(i, i + S + 1)
-        return Response(dyn, self.t[sl], self.u[sl], self.v[sl], self.method, setup=self.setup,
+        return Response(dyn, self.t[sl], self.u[sl], self.v[sl], self.method,
                         scheme=self.scheme)
 
     # --- displacements ------------------------------------------------------------------------
@@ -218,19 +222,19 @@ def _curvature_shapes(length: float, points: int) -> NDArray:
     return N2
 
 
-def _resolve(system, scheme: Scheme | None = None):
-    """(dynamics, scheme, setup) of a LinkageDynamics, a Setup or a Params."""
-    from .steady import _dynamics_and_scheme
+def _resolve(setup):
+    """(dynamics, scheme, setup) of a problem (a Setup, or a Params)."""
+    from .steady import _problem
 
-    return _dynamics_and_scheme(system, scheme)
+    return _problem(setup)
 
 
+@analysis
 def transient(
-    system: LinkageDynamics | Setup | Params,
+    setup: Setup | Params,
     periods: int = 1,
     u0: ArrayLike | None = None,
     v0: ArrayLike | None = None,
-    scheme: Scheme | None = None,
     *,
     newton: str = "full",
 ) -> Response:
@@ -241,14 +245,13 @@ def transient(
 
     Parameters
     ----------
-    system
-        A :class:`~fivebar.dynamics.LinkageDynamics`, a :class:`fivebar.setup.Setup` or a Params.
+    setup
+        The problem, a :class:`fivebar.setup.Setup` (its S and scheme, ...) or a Params
+        (``Setup(params)``).
     periods
         Periods to integrate (S steps each).
     u0, v0
         The state at t = 0 (default: rest).
-    scheme
-        Default the set-up's (the parameter file's).
     newton
         "full" or "modified" Newton iterations in each step (:func:`fivebar.newmark.integrate`).
 
@@ -259,14 +262,15 @@ def transient(
         :class:`~fivebar.newmark.NewmarkResult`.
     """
     periods = number("periods", periods, integer=True, low=1, high=MAX_TRANSIENT_PERIODS)
-    dyn, scheme, setup = _resolve(system, scheme)
+    dyn, scheme, _ = _resolve(setup)
     u = np.zeros(dyn.n) if u0 is None else array("u0", u0, shape=(dyn.n,))
     v = np.zeros(dyn.n) if v0 is None else array("v0", v0, shape=(dyn.n,))
-    res = integrate(dyn, u, v, 0.0, dyn.dt, periods * dyn.steps, scheme, step_data=dyn.step_data, newton=newton)
-    return Response(dyn, res.t, res.u, res.v, "transient", setup=setup, scheme=scheme, solver=res)
+    res = integrate(dyn, u, v, 0.0, dyn.dt, periods * dyn.steps_per_period, scheme, step_data=dyn.step_data, newton=newton)
+    return Response(dyn, res.t, res.u, res.v, "transient", scheme=scheme, solver=res)
 
 
-def quasi_static(system: LinkageDynamics | Setup | Params, t: ArrayLike | None = None) -> Response:
+@analysis
+def quasi_static(setup: Setup | Params, t: ArrayLike | None = None) -> Response:
     r"""The quasi-static deflection :math:`\mathbf K(t)^{-1}\mathbf F(t)` of the linear
     subsystem (the response to a slow inertial load), as a Response.
 
@@ -276,25 +280,25 @@ def quasi_static(system: LinkageDynamics | Setup | Params, t: ArrayLike | None =
     :func:`fivebar.steady.shooting`); else at the times ``t`` (s), with the velocity by a
     central difference over a millionth of the period.  ``method == "quasi-static"``.
     """
-    dyn, _, setup = _resolve(system)
+    dyn = _resolve(setup)[0]
     if t is None:
         sd = dyn.step_data
         qs = np.linalg.solve(sd.K, sd.F[..., None])[..., 0]
         vs = (np.roll(qs, -1, axis=0) - np.roll(qs, 1, axis=0)) / (2 * dyn.dt)
-        times = np.arange(dyn.steps + 1) * dyn.dt
-        return Response(dyn, times, np.concatenate([qs, qs[:1]]), np.concatenate([vs, vs[:1]]), "quasi-static",
-                        setup=setup)
+        times = np.arange(dyn.steps_per_period + 1) * dyn.dt
+        return Response(dyn, times, np.concatenate([qs, qs[:1]]), np.concatenate([vs, vs[:1]]), "quasi-static")
     times = array("t", t, shape=(None,))
     if len(times) < 1:
         raise InputError(f"t = {t!r} is not allowed: give at least one time (s), or None")
     h = 1e-6 * dyn.period
     qs = dyn.quasi_static(times)
     vs = (dyn.quasi_static(times + h) - dyn.quasi_static(times - h)) / (2 * h)
-    return Response(dyn, times, qs, vs, "quasi-static", setup=setup)
+    return Response(dyn, times, qs, vs, "quasi-static")
 
 
+@analysis
 def radau(
-    system: LinkageDynamics | Setup | Params,
+    setup: Setup | Params,
     t: ArrayLike,
     u0: ArrayLike | None = None,
     v0: ArrayLike | None = None,
@@ -314,8 +318,8 @@ def radau(
 
     Parameters
     ----------
-    system
-        A :class:`~fivebar.dynamics.LinkageDynamics`, a :class:`fivebar.setup.Setup` or a Params.
+    setup
+        The problem, a :class:`fivebar.setup.Setup` or a Params (``Setup(params)``).
     t
         Increasing sample times (s), at least two; the integration runs from ``t[0]`` to ``t[-1]``.
     u0, v0
@@ -331,7 +335,7 @@ def radau(
     """
     import scipy.integrate
 
-    dyn, _, setup = _resolve(system)
+    dyn = _resolve(setup)[0]
     ts = array("t", t, shape=(None,))
     if len(ts) < 2 or np.any(np.diff(ts) <= 0):
         raise InputError(f"t = {t!r} is not allowed: give at least two increasing times (s)")
@@ -359,4 +363,4 @@ def radau(
                                     rtol=rtol, atol=atol, jac=jac)
     if not sol.success:
         raise ComputationError(f"scipy's Radau failed between t = {ts[0]:.6g} and {ts[-1]:.6g} s: {sol.message}")
-    return Response(dyn, ts, sol.y[:m].T, sol.y[m:].T, "radau", setup=setup, solver=sol)
+    return Response(dyn, ts, sol.y[:m].T, sol.y[m:].T, "radau", solver=sol)

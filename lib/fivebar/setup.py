@@ -1,19 +1,25 @@
 """One linkage set-up: parameters, crank speed, S, motors, nonlinearity, mesh and scheme.
 
-Every analysis of the linkage (:func:`fivebar.steady.steady_state`, :func:`fivebar.sweep.speed_sweep`,
-the resonance tables, the multiple-scales start, the control simulation) takes a
-:class:`Setup` or a :class:`~fivebar.params.Params`; :func:`as_setup` turns the second into
-the first, so each default lives once: a field left ``None`` takes the parameter file's entry
+The problem object.  Every analysis of the linkage (:func:`fivebar.steady.steady_state`,
+:func:`fivebar.sweep.speed_sweep`, the resonance tables, the multiple scales, the control
+simulation, the continuation) takes a :class:`Setup` or a :class:`~fivebar.params.Params`
+(meaning ``Setup(params)``; :func:`as_setup` turns it into one) and only options of its own: a
+field of the set-up given to an analysis as a keyword is refused (:func:`analysis`), so each
+default lives once.  A field left ``None`` takes the parameter file's entry
 (``Setup(params).steps_per_period == params.steps_per_period``), and the time integrator is
 built from the file's ``[simulation] scheme`` and ``rho_infinity`` (errata E26).
+:class:`~fivebar.dynamics.LinkageDynamics` samples a set-up's equation of motion
+(``setup.dynamics()``, built once).
 
 >>> s = Setup(load_params(), crank_speed_rpm=300)
->>> s.replace(steps_per_period=1600).dynamics()
+>>> steady_state(s.replace(steps_per_period=1600))
 """
 
 from __future__ import annotations
 
-import math
+import functools
+import inspect
+from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -24,7 +30,7 @@ from .errors import InputError, InputTypeError, flag, memory, number
 from .schemes import GeneralizedAlpha, Newmark, Scheme
 from .params import Params
 
-__all__ = ["PAPER_SCHEME", "Setup", "as_setup", "default_scheme", "drive_period", "min_steps_per_period",
+__all__ = ["PAPER_SCHEME", "SETUP_FIELDS", "Setup", "analysis", "as_setup", "default_scheme", "drive_period", "min_steps_per_period",
            "scheme_name"]
 
 #: The paper's rule (section 5, read as gamma = 1/2, beta = 1/4: errata E2): the
@@ -187,6 +193,11 @@ class Setup:
     def _build_dynamics(self):
         from .dynamics import LinkageDynamics
 
+        return LinkageDynamics(self)
+
+    def _check_memory(self) -> None:
+        """Refuse a set-up whose sampled matrices would not fit in memory (a MemoryError of
+        :func:`fivebar.errors.memory`, naming S and the mesh)."""
         n = _estimated_dofs(self.elements_per_link, self.motors)
         S = self.steps_per_period
         # the step matrices M, C, K of every step and the step tangent's LU cache
@@ -194,26 +205,45 @@ class Setup:
                f"the step matrices of steps_per_period = {S} steps with about {n} DOFs "
                f"(elements_per_link = {self.elements_per_link or (1, 2, 2, 1)})",
                "give a smaller steps_per_period or a coarser elements_per_link")
-        return LinkageDynamics(
-            self.params, self.crank_speed_rpm, self.steps_per_period, self.motors, self.nonlinear,
-            self.elements_per_link,
-        )
 
 
-def as_setup(setup: Setup | Params, argument: str = "setup", **overrides: Any) -> Setup:
-    """A :class:`Setup` from a Setup or a Params, with keyword overrides (``None`` = keep).
+#: the fields of a problem, which no analysis takes as a keyword of its own
+SETUP_FIELDS = tuple(f.name for f in fields(Setup) if f.init and f.name != "params")
 
-    ``as_setup(params, steps_per_period=400)``; the keywords are the fields of :class:`Setup`;
-    those given as ``None`` are ignored, so the functions that take both a set-up and the old
-    keyword arguments can pass theirs through unchanged.  ``argument`` is the caller's name of
-    ``setup`` (for the message of a wrong type).
-    """
-    given = {k: v for k, v in overrides.items() if v is not None}
+
+def as_setup(setup: Setup | Params, argument: str = "setup") -> Setup:
+    """The problem as a :class:`Setup`: a Setup as it is, a Params as ``Setup(params)`` (every
+    field the parameter file's); anything else raises :class:`~fivebar.errors.InputTypeError`
+    naming ``argument`` (the caller's name of ``setup``)."""
     if isinstance(setup, Setup):
-        return setup.replace(**given) if given else setup
+        return setup
     if isinstance(setup, Params):
-        return Setup(setup, **given)
+        return Setup(setup)
     raise InputTypeError(
         f"{argument} = {setup!r} ({type(setup).__name__}) is not allowed: give a fivebar.Setup or a "
         "fivebar.Params (fivebar.load_params() or fivebar.Setup(params, ...))"
     )
+
+
+def analysis(fn: Callable) -> Callable:
+    """Mark ``fn`` as an analysis of a problem (its first argument, a Setup or a Params): a
+    field of :class:`Setup` passed to it as a keyword (``steady_state(params,
+    steps_per_period=400)``) raises :class:`~fivebar.errors.InputError` naming the keyword
+    and saying where it belongs, ``Setup(params, ...)`` or ``setup.replace(...)``; the set-up
+    says it, once."""
+    own = set(inspect.signature(fn).parameters)
+    refused = [name for name in SETUP_FIELDS if name not in own]
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        bad = [k for k in kwargs if k in refused]
+        if bad:
+            given = ", ".join(f"{k}={kwargs[k]!r}" for k in bad)
+            raise InputError(
+                f"{fn.__name__}(..., {given}) is not allowed: {', '.join(bad)} "
+                f"{'is a field' if len(bad) == 1 else 'are fields'} of the problem, not an option of "
+                f"{fn.__name__}; give {'it' if len(bad) == 1 else 'them'} in the set-up: "
+                f"{fn.__name__}(fivebar.Setup(params, {given}), ...) or "
+                f"{fn.__name__}(setup.replace({given}), ...)")
+        return fn(*args, **kwargs)
+    return wrapper

@@ -55,7 +55,7 @@ from .newmark import NewtonConvergenceError, integrate
 from .schemes import Scheme
 from .params import Params
 from .response import Response
-from .setup import Setup, as_setup, default_scheme, min_steps_per_period, scheme_name
+from .setup import Setup, analysis, as_setup, default_scheme, min_steps_per_period, scheme_name
 
 __all__ = ["DEFLECTION_LIMIT", "SteadyState", "SteadyStateError", "ValidityWarning", "march", "shooting",
            "steady_state"]
@@ -111,7 +111,7 @@ class SteadyState(Response):
     scheme
         The time integrator used.
     setup
-        The set-up solved (None when a LinkageDynamics was given directly).
+        The set-up solved (the problem).
     """
 
     periods: int = 0
@@ -149,11 +149,11 @@ class SteadyState(Response):
         rho = float(np.abs(self.floquet_multipliers).max())
         if rho < 1.0:
             return (f"stable: largest Floquet multiplier {rho:.3g} with {_scheme_text(self.scheme)} at "
-                    f"S = {self.dynamics.steps}" + tail)
+                    f"S = {self.dynamics.steps_per_period}" + tail)
         found = self._cache.get("explained")
         found = ("; what a march from it settles on: " + found.text if found is not None else
                  "; steady_state(..., explain=True) names what a march from it settles on")
-        return (f"unstable: largest Floquet multiplier {rho:.3g}; " + _remedy(self.scheme, self.dynamics.steps)
+        return (f"unstable: largest Floquet multiplier {rho:.3g}; " + _remedy(self.scheme, self.dynamics.steps_per_period)
                 + found + tail)
 
     @property
@@ -182,8 +182,7 @@ class SteadyState(Response):
         if self.accuracy is not None:
             est = {"S error estimate": self.accuracy["estimate"],
                    "S compared": (self.accuracy["compared_with"], self.accuracy["steps"])}
-        elif "accuracy" in self._cache or (self.dynamics.nonlinear is None and self.dynamics.n <= _DENSE_MAX_DOFS
-                                           and self.setup is not None):
+        elif "accuracy" in self._cache or (self.dynamics.nonlinear is None and self.dynamics.n <= _DENSE_MAX_DOFS):
             est = self.check_accuracy()
         else:
             est = {"S error estimate": None, "S compared": None}
@@ -195,13 +194,10 @@ class SteadyState(Response):
         2 S, by shooting from this orbit); the result is kept in :attr:`validity`."""
         if "accuracy" not in self._cache:
             dyn = self.dynamics
-            if self.setup is None:
-                raise InputError("check_accuracy needs the set-up of the result: solve with a fivebar.Setup "
-                                 "or Params (steady_state(setup)), not a LinkageDynamics")
-            fine_dyn = self.setup.replace(steps_per_period=2 * dyn.steps).dynamics()
-            fine = shooting(fine_dyn, self.u[0], self.v[0], scheme=self.scheme)
+            fine = shooting(self.setup.replace(steps_per_period=2 * dyn.steps_per_period, scheme=self.scheme),
+                            self.u[0], self.v[0])
             self._cache["accuracy"] = {"S error estimate": float(_deflection_change(self, fine)),
-                                       "S compared": (dyn.steps, 2 * dyn.steps)}
+                                       "S compared": (dyn.steps_per_period, 2 * dyn.steps_per_period)}
         return dict(self._cache["accuracy"])
 
     def _checks(self) -> dict[str, Any]:
@@ -262,11 +258,9 @@ def _remedy(scheme: Scheme | None, S: int) -> str:
             "errata E28)")
 
 
-def _dynamics_and_scheme(dyn, scheme: Scheme | None):
-    """Accept a LinkageDynamics, a Setup or a Params; return the dynamics and the scheme."""
-    if isinstance(dyn, LinkageDynamics):
-        return dyn, default_scheme(dyn.params) if scheme is None else scheme, None
-    s = as_setup(dyn, "dyn", scheme=scheme)
+def _problem(setup: Setup | Params, argument: str = "setup") -> tuple[LinkageDynamics, Scheme, Setup]:
+    """The dynamics, the scheme and the set-up of a problem (a Setup, or a Params)."""
+    s = as_setup(setup, argument)
     return s.dynamics(), s.scheme, s
 
 
@@ -311,39 +305,38 @@ def _period(dyn, u0, v0, scheme, store="all", sensitivity=False, rtol=1e-10, max
     kw = dict(step_data=dyn.step_data, store=store, sensitivity=sensitivity, rtol=rtol,
               max_iter=max_iter, directions=directions)
     if dyn.nonlinear is None:
-        return integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, newton="full", **kw)
+        return integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps_per_period, scheme, newton="full", **kw)
     order = ("full", "modified") if dyn.n <= _DENSE_MAX_DOFS else ("modified", "full")
     try:
-        return integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, newton=order[0], **kw)
+        return integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps_per_period, scheme, newton=order[0], **kw)
     except NewtonConvergenceError as first:
         try:
-            return integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps, scheme, newton=order[1], **kw)
+            return integrate(dyn, u0, v0, 0.0, dyn.dt, dyn.steps_per_period, scheme, newton=order[1], **kw)
         except NewtonConvergenceError as second:
             raise NewtonConvergenceError(
                 f"{second} ({order[1]} Newton; {order[0]} Newton failed too: {first})",
                 second.t, second.residual, second.iterations) from first
 
 
+@analysis
 def march(
-    dyn: LinkageDynamics | Setup | Params,
+    setup: Setup | Params,
     u0: NDArray | None = None,
     v0: NDArray | None = None,
     tol: float = 1e-6,
     max_periods: int = 2000,
-    scheme: Scheme | None = None,
 ) -> SteadyState:
     """March period by period until the state repeats to ``tol`` (relative, energy norm).
 
-    ``dyn`` is a :class:`~fivebar.dynamics.LinkageDynamics`, a :class:`fivebar.setup.Setup` or a
-    :class:`fivebar.params.Params`; ``scheme`` defaults to the set-up's (the parameter file's).
-    ``u0, v0`` default to rest (zeros).  Raises :class:`SteadyStateError` after
+    ``setup`` is the problem, a :class:`fivebar.setup.Setup` (its S, scheme, ...) or a
+    :class:`fivebar.params.Params` (``Setup(params)``).  ``u0, v0`` default to rest (zeros).  Raises :class:`SteadyStateError` after
     ``max_periods`` periods, naming the last relative change, and a
     :class:`~fivebar.newmark.NewtonConvergenceError` naming the scheme and the remedy if a
     step fails.
     """
     tol = number("tol", tol, low=0.0, low_open=True)
     max_periods = number("max_periods", max_periods, integer=True, low=1, high=MAX_PERIODS)
-    dyn, scheme, setup = _dynamics_and_scheme(dyn, scheme)
+    dyn, scheme, setup = _problem(setup)
     u = np.zeros(dyn.n) if u0 is None else array("u0", u0, shape=(dyn.n,))
     v = np.zeros(dyn.n) if v0 is None else array("v0", v0, shape=(dyn.n,))
     change = np.inf
@@ -353,15 +346,14 @@ def march(
             res = _period(dyn, u, v, scheme)
         except NewtonConvergenceError as exc:
             raise NewtonConvergenceError(
-                f"marching failed in period {k}: {exc}. " + _remedy(scheme, dyn.steps),
+                f"marching failed in period {k}: {exc}. " + _remedy(scheme, dyn.steps_per_period),
                 exc.t, exc.residual, exc.iterations) from exc
         scale = _energy_norm(dyn, res.u, res.v).max()
         change = float(_energy_norm(dyn, res.u[-1] - u, res.v[-1] - v)) / max(scale, 1e-300)
         u, v = res.u[-1], res.v[-1]
         changes.append(change)
         if change <= tol:
-            return SteadyState(dyn, res.t, res.u, res.v, "march", k, residual=change, scheme=scheme,
-                               setup=setup)
+            return SteadyState(dyn, res.t, res.u, res.v, "march", k, residual=change, scheme=scheme)
     # a change still falling steadily is a slow decay (light damping), not an instability
     recent = changes[-min(len(changes), 20):]
     if len(recent) >= 2 and recent[-1] < recent[0] and np.isfinite(recent[-1]):
@@ -372,26 +364,25 @@ def march(
                  + (f", and would reach the tolerance in about {more} more periods" if more else "")
                  + ": give a larger max_periods, or use shooting (steady_state(..., method='shooting'))")
     else:
-        cause = _remedy(scheme, dyn.steps)
+        cause = _remedy(scheme, dyn.steps_per_period)
     raise SteadyStateError(
         f"no periodic steady state after {max_periods} periods (max_periods): the last relative change "
         f"over one period was {change:.3e} (tolerance {tol:.1e}); " + cause
     )
 
 
+@analysis
 def shooting(
-    dyn: LinkageDynamics | Setup | Params,
+    setup: Setup | Params,
     u0: NDArray | None = None,
     v0: NDArray | None = None,
     tol: float = 1e-10,
     max_iter: int = 20,
-    scheme: Scheme | None = None,
 ) -> SteadyState:
     r"""Damped Newton's method on the periodicity condition, with the Newmark monodromy matrix.
 
-    ``dyn`` is a :class:`~fivebar.dynamics.LinkageDynamics`, a :class:`fivebar.setup.Setup` or a
-    :class:`fivebar.params.Params`; ``scheme`` defaults to the set-up's (the parameter file's).
-    ``u0, v0`` default to the quasi-static state at t = 0.  Converged when the relative
+    ``setup`` is the problem, a :class:`fivebar.setup.Setup` (its S, scheme, ...) or a
+    :class:`fivebar.params.Params` (``Setup(params)``).  ``u0, v0`` default to the quasi-static state at t = 0.  Converged when the relative
     periodicity residual (energy norm) is below ``tol``.  A Newton step that does not reduce
     the residual (or whose period fails to integrate) is halved, up to 10 times.  The returned
     state carries the Floquet multipliers of the orbit.
@@ -403,10 +394,10 @@ def shooting(
     less than a factor 10 in a step, or when a step with the old one fails.  The Floquet
     multipliers of a nonlinear orbit are computed when first asked for.
     """
-    return _shooting(dyn, u0, v0, tol, max_iter, scheme)
+    return _shooting(setup, u0, v0, tol, max_iter)
 
 
-def _shooting(dyn, u0, v0, tol, max_iter, scheme, monodromy: NDArray | None = None) -> SteadyState:
+def _shooting(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) -> SteadyState:
     """:func:`shooting`, optionally started with ``monodromy`` (up to 32 DOFs): a monodromy
     matrix (2 n, 2 n) of a nearby problem (the same model at a neighbouring speed) as the chord
     iteration's first Jacobian; the orbit's own replaces it when a step with it falls short, as
@@ -415,7 +406,7 @@ def _shooting(dyn, u0, v0, tol, max_iter, scheme, monodromy: NDArray | None = No
     _monodromy = monodromy
     tol = number("tol", tol, low=0.0, low_open=True)
     max_iter = number("max_iter", max_iter, integer=True, low=1, high=MAX_SHOOTING_ITER)
-    dyn, scheme, setup = _dynamics_and_scheme(dyn, scheme)
+    dyn, scheme, setup = _problem(setup)
     n = dyn.n
     if u0 is not None:
         u0 = array("u0", u0, shape=(n,))
@@ -459,12 +450,12 @@ def _shooting(dyn, u0, v0, tol, max_iter, scheme, monodromy: NDArray | None = No
             fallback = default_scheme(dyn.params)
             if scheme.rho_infinity < 1.0 or fallback.rho_infinity >= 1.0:
                 raise
-            start = shooting(dyn, u0, v0, tol=tol, max_iter=max_iter, scheme=fallback)
+            start = shooting(setup.replace(scheme=fallback), u0, v0, tol=tol, max_iter=max_iter)
             x = np.concatenate([start.u[0], start.v[0]])
             res, W, g, a, r = evaluate(x, True)
     except NewtonConvergenceError as exc:
         raise NewtonConvergenceError(
-            f"shooting could not integrate the first period: {exc}. " + _remedy(scheme, dyn.steps),
+            f"shooting could not integrate the first period: {exc}. " + _remedy(scheme, dyn.steps_per_period),
             exc.t, exc.residual, exc.iterations) from exc
     periods = 1
     solve = _given_step(_monodromy, W, V, D) if given else _newton_step(W, V, D)
@@ -478,8 +469,7 @@ def _shooting(dyn, u0, v0, tol, max_iter, scheme, monodromy: NDArray | None = No
                 floquet = _Constant(W * D[None, :])  # W = Phi diag(1 / D)
             else:
                 floquet = _OrbitMonodromy(dyn, scheme, x)
-            out = SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, floquet, residual=r, scheme=scheme,
-                              setup=setup)
+            out = SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, floquet, residual=r, scheme=scheme)
             if V is full and own:
                 out._cache["monodromy"] = W * D[None, :]
             return out
@@ -505,7 +495,7 @@ def _shooting(dyn, u0, v0, tol, max_iter, scheme, monodromy: NDArray | None = No
         else:
             raise SteadyStateError(
                 f"shooting: no step along the Newton direction (halved 10 times) reduces the "
-                f"periodicity residual {r:.3e} in iteration {it}; " + _remedy(scheme, dyn.steps)
+                f"periodicity residual {r:.3e} in iteration {it}; " + _remedy(scheme, dyn.steps_per_period)
             )
         x = x + lam * y
         slow = trial[3] > 0.1 * a
@@ -520,7 +510,7 @@ def _shooting(dyn, u0, v0, tol, max_iter, scheme, monodromy: NDArray | None = No
     raise SteadyStateError(
         f"shooting did not converge in {max_iter} Newton iterations (max_iter): relative periodicity "
         f"residual {r:.3e} (tolerance {tol:.1e}); if the residual was still falling, give a larger "
-        "max_iter or start from a nearby orbit (u0, v0); " + _remedy(scheme, dyn.steps)
+        "max_iter or start from a nearby orbit (u0, v0); " + _remedy(scheme, dyn.steps_per_period)
     )
 
 
@@ -653,21 +643,17 @@ class _OrbitMonodromy:
 _TOL_FIRST_STEPS, _TOL_MAX_STEPS = 50, 12800
 
 
+@analysis
 def steady_state(
     setup: Setup | Params,
     method: str = "shooting",
-    steps_per_period: int | None = None,
-    crank_speed_rpm: float | None = None,
-    motors: bool | None = None,
-    nonlinear: bool | None = None,
-    scheme: Scheme | None = None,
-    elements_per_link: tuple[int, int, int, int] | None = None,
     tol: float | None = None,
     explain: bool = False,
 ) -> SteadyState:
     """The periodic steady state of the linkage over one period of the motion.
 
-    ``res = steady_state(params)`` or ``steady_state(fivebar.Setup(params, ...))``;
+    ``res = steady_state(params)`` or ``steady_state(setup.replace(crank_speed_rpm=300,
+    steps_per_period=1600))``;
     ``res.midpoint_mm("L2", "transverse")`` (mm over the S + 1 samples from crank angle 0),
     ``res.floquet_multipliers``, ``res.stable``, ``res.note``, ``res.bending_stress()`` (Pa).
     ``steady_state(params, tol=0.01)`` chooses S itself for 1 % on the midpoint deflections
@@ -676,19 +662,17 @@ def steady_state(
     Parameters
     ----------
     setup
-        A :class:`fivebar.setup.Setup`, or a :class:`fivebar.params.Params` (all other settings from the
+        The problem: a :class:`fivebar.setup.Setup` (crank speed, S, motors, nonlinearity,
+        mesh, scheme; the paper's rule is ``Setup(params, scheme=fivebar.PAPER_SCHEME)``), or a
+        :class:`fivebar.params.Params` meaning ``Setup(params)`` (every setting from the
         parameter file: S = ``steps_per_period``, the ``[simulation] scheme``).
     method
         "shooting" (damped Newton on periodicity, with Floquet multipliers) or "march" (period
         by period from rest).
-    steps_per_period, crank_speed_rpm, motors, nonlinear, scheme, elements_per_link
-        Override the set-up's fields (``None`` keeps them): see :class:`fivebar.setup.Setup`.  The
-        paper's rule is ``scheme=fivebar.PAPER_SCHEME``.
     tol
         Relative accuracy asked of the transverse midpoint deflections of L2 and L3 over the
         period (Figure 6), for example 0.01; ``None`` (default) solves at the set-up's S.  With
-        ``tol`` the library chooses S (the set-up's S is not used; do not pass
-        ``steps_per_period``): it solves at S = 50, 100, 200, ... (each from the previous
+        ``tol`` the library chooses S (the set-up's S is not used): it solves at S = 50, 100, 200, ... (each from the previous
         orbit, sampling no step time twice; after a first speed, each from the orbit of the
         last speed of the same problem, scaled) until the deflection curves of two successive S
         differ by at most ``tol`` of their peak-to-peak value at every sample, and returns the
@@ -713,11 +697,7 @@ def steady_state(
                          "Floquet multipliers of shooting (method='shooting')")
     if tol is not None:
         tol = number("tol", tol, low=0.0, high=1.0, low_open=True, high_open=True)
-        if steps_per_period is not None:
-            raise InputError(f"steps_per_period = {steps_per_period!r} and tol = {tol!r} are not allowed "
-                             "together: with tol the library chooses S")
-    s = as_setup(setup, steps_per_period=steps_per_period, crank_speed_rpm=crank_speed_rpm, motors=motors,
-                 nonlinear=nonlinear, scheme=scheme, elements_per_link=elements_per_link)
+    s = as_setup(setup)
     if tol is not None:
         res = _to_tolerance(s, method, float(tol))
     elif method == "shooting":
@@ -732,7 +712,7 @@ def steady_state(
     if outside:
         warnings.warn(f"the steady state at {s.crank_speed_rpm:g} r/min is outside the model's validity: "
                       + "; ".join(outside) + " (SteadyState.validity has the checks)", ValidityWarning,
-                      stacklevel=2)
+                      stacklevel=3)  # (steady_state, its analysis wrapper, the caller)
     return res
 
 
@@ -776,7 +756,8 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
     prev: SteadyState | None = None
     tried: list[str] = []
     while S <= _TOL_MAX_STEPS:
-        dyn = s.replace(steps_per_period=S).dynamics()
+        sS = s.replace(steps_per_period=S)
+        dyn = sS.dynamics()
         try:
             if method == "shooting":
                 if prev is not None:
@@ -784,7 +765,7 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
                     # S's monodromy matrix at the last speed, or the orbit's own (the coarser S's
                     # is a poor guide: its unresolved modes differ)
                     x = np.concatenate([prev.u[0], prev.v[0]])
-                    lo = prev.dynamics.steps
+                    lo = prev.dynamics.steps_per_period
                     if memo is not None and lo in memo["x"] and S in memo["x"]:
                         x = x + _predict(memo, S, s.crank_speed_rpm) - _predict(memo, lo, s.crank_speed_rpm)
                     n = dyn.n
@@ -795,29 +776,28 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
                     start, Phi = (x[:n], x[n:]), None if S in memo["stale"] else memo["monodromy"].get(S)
                 else:
                     start, Phi = (None, None), None
-                cur = _shooting(dyn, *start, inner, shooting.__defaults__[3], s.scheme,  # its max_iter
+                cur = _shooting(sS, *start, inner, shooting.__wrapped__.__defaults__[3],  # its max_iter
                                 monodromy=Phi)
                 if Phi is not None and "monodromy" in cur._cache:
                     stale.add(S)  # the last speed's matrix fell short: take this S's own from now on
             else:
-                cur = march(dyn, tol=inner, scheme=s.scheme)
+                cur = march(sS, tol=inner)
         except (NewtonConvergenceError, SteadyStateError) as exc:
             tried.append(f"S = {S}: failed ({type(exc).__name__})")
             prev, S = None, 2 * S
             continue
-        cur.setup = s.replace(steps_per_period=S)
         solved.append(cur)
         if prev is not None:
             err = _deflection_change(prev, cur)
-            tried.append(f"S = {prev.dynamics.steps} to {S}: {err:.2e}")
+            tried.append(f"S = {prev.dynamics.steps_per_period} to {S}: {err:.2e}")
             if err <= tol:
                 cur.accuracy = {
-                    "tol": tol, "estimate": err, "steps": S, "compared_with": prev.dynamics.steps,
+                    "tol": tol, "estimate": err, "steps": S, "compared_with": prev.dynamics.steps_per_period,
                     "method": method, "tried": tried,
                     "choice": (f"S = {S} chosen for tol = {tol:g} ({method}): the transverse midpoint "
                                f"deflections of {' and '.join(s.params.linkage.couplers)} changed by at most "
                                f"{err:.2g} of their peak-to-peak "
-                               f"value from S = {prev.dynamics.steps} to S = {S}")}
+                               f"value from S = {prev.dynamics.steps_per_period} to S = {S}")}
                 if key is not None:
                     _remember(key, s.crank_speed_rpm, solved, stale)
                 return cur
@@ -858,7 +838,7 @@ def _remember(key, rpm: float, solved: list[SteadyState], stale: set[int]) -> No
     memo = {"rpm": rpm, "x": {}, "monodromy": {} if old is None else dict(old["monodromy"]), "stale": stale,
             "before": None if old is None else {"rpm": old["rpm"], "x": old["x"]}}
     for r in solved:
-        S = r.dynamics.steps
+        S = r.dynamics.steps_per_period
         memo["x"][S] = np.concatenate([r.u[0], r.v[0]])
         if "monodromy" in r._cache:  # else the one of an earlier speed stays (the chord method's guide)
             memo["monodromy"][S] = r._cache["monodromy"]

@@ -15,10 +15,11 @@ peak-to-peak of :math:`\mathbf K(t)^{-1}\mathbf F(t)`, itself exactly proportion
 
 The integrator and S are the set-up's (:class:`fivebar.setup.Setup`: the parameter file's
 generalised-alpha scheme, errata E26: the paper's average-acceleration rule at S = 100 has an
-unstable discrete periodic orbit for this model).  A sweep over many speeds may pass a smaller
-``steps_per_period`` to save time (S = 100 is within about 1 % up to 400 r/min).  The
-default model is linear (``nonlinear=False``): fast, and the resonance positions do not depend
-on the amplitude.
+unstable discrete periodic orbit for this model).  A sweep over many speeds may use a smaller
+S to save time (``Setup(params, steps_per_period=100)``: within about 1 % up to 400 r/min),
+and the linear model (``Setup(params, nonlinear=False)``): fast, and the resonance positions
+do not depend on the amplitude.  The sweep solves the problem it is given: its only own
+options are the speeds and what is recorded.
 
 Parallel runs: pass any :class:`concurrent.futures.Executor` (``ProcessPoolExecutor``, or a Dask
 cluster's ``client.get_executor()``); ``None`` runs serially.  Results are kept in the
@@ -44,9 +45,8 @@ from tqdm import tqdm
 
 from .cache import STORE
 from .errors import FivebarError, number
-from .schemes import Scheme
 from .params import Params
-from .setup import Setup, as_setup
+from .setup import Setup, analysis, as_setup
 from .response import quasi_static
 from .steady import DEFLECTION_LIMIT, ValidityWarning, shooting
 
@@ -153,21 +153,18 @@ def _check_links(links, direction, linkage) -> tuple[tuple[str, ...], str]:
     return links, direction
 
 
+@analysis
 def sweep_point(
-    params: Params | Setup,
-    crank_speed_rpm: float,
+    setup: Setup | Params,
     links: tuple[str, ...] | None = None,
     direction: str = "transverse",
-    steps_per_period: int | None = None,
-    scheme: Scheme | None = None,
-    nonlinear: bool = False,
-    motors: bool = True,
-    elements_per_link: tuple[int, int, int, int] | None = None,
     accuracy: bool = False,
 ) -> dict[str, float]:
-    r"""Steady state at one crank speed: peak-to-peak midpoint amplitudes and their amplification.
+    r"""Steady state of a problem at its crank speed: peak-to-peak midpoint amplitudes and their
+    amplification.
 
-    Returns a dict with ``speed (r/min)``, ``crank frequency (Hz)``, for every link
+    ``sweep_point(setup.replace(crank_speed_rpm=300))``.  Returns a dict with ``speed (r/min)``,
+    ``crank frequency (Hz)``, for every link
     ``"<link> p2p (mm)"``, ``"<link> quasi-static p2p (mm)"``, ``"<link> amplification"``,
     ``max |multiplier|`` (largest Floquet multiplier), ``periods`` (shooting cost), and the
     validity of the result (:attr:`fivebar.steady.SteadyState.validity`): ``peak stress (MPa)``
@@ -178,14 +175,11 @@ def sweep_point(
     ``accuracy=True``, ``S error estimate`` (S against 2 S; one more steady state per speed).
     A top-level function, so that it can run in worker processes.
     """
-    crank_speed_rpm = number("crank_speed_rpm", crank_speed_rpm, low=0.0, low_open=True, unit="r/min",
-                             error=SweepError)
-    setup = as_setup(params, "params", crank_speed_rpm=crank_speed_rpm, steps_per_period=steps_per_period,
-                     scheme=scheme, nonlinear=nonlinear, motors=motors, elements_per_link=elements_per_link)
+    setup = as_setup(setup)
+    crank_speed_rpm = setup.crank_speed_rpm
     links, direction = _check_links(links, direction, setup.params.linkage)
-    dyn = setup.dynamics()
     st = shooting(setup)
-    quasi = quasi_static(dyn)  # K(t)^-1 F(t) at the S steps
+    quasi = quasi_static(setup)  # K(t)^-1 F(t) at the S steps
     out = {"speed (r/min)": float(crank_speed_rpm), "crank frequency (Hz)": float(crank_speed_rpm) / 60.0}
     for link in links:
         a, q = st.peak_to_peak_mm(link, direction), quasi.peak_to_peak_mm(link, direction)
@@ -206,16 +200,13 @@ def sweep_point(
     return out
 
 
+@analysis
 def speed_sweep(
-    params: Params | Setup,
+    setup: Setup | Params,
     speeds_rpm: ArrayLike,
     *,
     links: Sequence[str] | None = None,
     direction: str = "transverse",
-    steps_per_period: int | None = None,
-    scheme: Scheme | None = None,
-    nonlinear: bool | None = None,
-    motors: bool | None = None,
     executor: cf.Executor | None = None,
     progress: bool = True,
     cache: bool = True,
@@ -225,15 +216,17 @@ def speed_sweep(
 
     Call forms::
 
-        df = speed_sweep(params, np.linspace(100, 3600, 200))               # serial
+        df = speed_sweep(setup, np.linspace(100, 3600, 200))                # serial
         with ProcessPoolExecutor(2) as ex:
-            df = speed_sweep(params, speeds, executor=ex)                     # processes
-        df = speed_sweep(params, speeds, executor=client.get_executor())     # Dask
+            df = speed_sweep(setup, speeds, executor=ex)                      # processes
+        df = speed_sweep(setup, speeds, executor=client.get_executor())      # Dask
+        df = speed_sweep(fivebar.Setup(params, nonlinear=False), speeds)     # the linear model
 
     Parameters
     ----------
-    params : Params or Setup
-        The set-up (a Params takes the parameter file's S and scheme); its crank speed is
+    setup : Setup or Params
+        The problem (its S, scheme, motors, nonlinearity, mesh; a Params means
+        ``Setup(params)``: every setting the parameter file's, nonlinear); its crank speed is
         replaced by each of ``speeds_rpm``.
     speeds_rpm : array_like
         Crank speeds (r/min), positive; both cranks turn at them (``speed_ratio`` applies).
@@ -242,13 +235,6 @@ def speed_sweep(
         between two pins: L2 and L3 of the five-bar, as Figure 6).
     direction : str
         As :meth:`fivebar.response.Response.midpoint_mm` ("transverse", "longitudinal", "chord").
-    steps_per_period : int, optional
-        S of (4.1); default the set-up's (the parameter file's).
-    scheme : Scheme, optional
-        Default the set-up's (the parameter file's generalised-alpha, see the module docstring).
-    nonlinear, motors : bool, optional
-        As :class:`fivebar.setup.Setup`; ``None`` keeps a Setup's fields, and for a Params means
-        linear (the sweep's default), with the motors.
     executor : concurrent.futures.Executor, optional
         Runs the speeds in parallel (``submit``); None runs them here, one after the other.
     progress : bool
@@ -274,14 +260,13 @@ def speed_sweep(
         raise SweepError(f"speeds_rpm = {speeds_rpm!r} is not allowed: give positive crank speeds (r/min)")
     if executor is not None and not callable(getattr(executor, "submit", None)):
         raise SweepError(f"executor = {executor!r} is not allowed: give a concurrent.futures.Executor or None")
-    if nonlinear is None and isinstance(params, Params):
-        nonlinear = False
-    base = as_setup(params, "params", steps_per_period=steps_per_period, scheme=scheme, nonlinear=nonlinear, motors=motors)
+    base = as_setup(setup)
     params = base.params
     links, direction = _check_links(links, direction, params.linkage)
     opts = (links, direction, base.steps_per_period, base.scheme, base.nonlinear, base.motors,
             base.elements_per_link, bool(accuracy))
     key = lambda s: (_POINTS, params, float(s), opts)  # noqa: E731
+    point = (links, direction, bool(accuracy))
     results: dict[float, dict[str, float]] = {}
     todo = []
     for s in dict.fromkeys(x.tolist()):
@@ -296,12 +281,12 @@ def speed_sweep(
                 tqdm(total=len(todo), disable=not progress, desc="crank speeds", unit="speed") as bar:
             if executor is None:
                 for s in todo:
-                    results[s] = sweep_point(params, s, *opts)
+                    results[s] = sweep_point(base.replace(crank_speed_rpm=s), *point)
                     if cache:
                         STORE.put(key(s), results[s])
                     bar.update()
             else:
-                futures = {executor.submit(sweep_point, params, s, *opts): s for s in todo}
+                futures = {executor.submit(sweep_point, base.replace(crank_speed_rpm=s), *point): s for s in todo}
                 for fut in cf.as_completed(futures):
                     s = futures[fut]
                     results[s] = fut.result()
@@ -337,7 +322,7 @@ def _warn_invalid(df: pd.DataFrame) -> None:
         f"deflection past {DEFLECTION_LIMIT:g} of a link's length), from {bad['speed (r/min)'].min():g} r/min "
         f"(largest stress / yield {bad['stress / yield'].max():.3g}, deflection / length "
         f"{bad['deflection / length'].max():.3g}): see the columns 'valid', 'stress / yield' and "
-        "'deflection / length'", ValidityWarning, stacklevel=3)
+        "'deflection / length'", ValidityWarning, stacklevel=4)  # (speed_sweep and its analysis wrapper)
 
 
 def sweep_peaks(sweep: pd.DataFrame, column: str, prominence: float = 0.05) -> pd.DataFrame:
