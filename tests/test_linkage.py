@@ -249,3 +249,22 @@ def test_five_bar_only_analyses_refuse_the_four_bar_by_name():
             call()
     assert rigid_inertia(FOUR).rotors == {}  # the rigid inertia serves any description
     assert FOUR.crank_motors == {} and list(FOUR.motors) == ["motor1", "motor2"]  # the layered file's sections
+
+
+def test_four_bar_brute_force_and_speed_report_use_its_own_links():
+    """The branch tools take their default link from the description (the four-bar's coupler;
+    they read L2 and two crank angles before): the brute-force Poincaré sample of a long march
+    at 600 r/min is the shot orbit's coupler midpoint at crank angle 0 (a second method: no
+    Newton on periodicity), and a report of the speed names a stable orbit."""
+    from fivebar.branches import brute_force_diagram, describe_speed
+    from fivebar.errors import InputError
+
+    s = Setup(FOUR, crank_speed_rpm=600, steps_per_period=200, motors=False)
+    bf = brute_force_diagram(s, [600.0], transient=60, samples=3, both_ways=False)
+    assert bf.link == "coupler" and not bf.diverged[0]
+    ref = fivebar.steady_state(s).midpoint_mm("coupler")[0]
+    assert abs(ref) > 1e-4  # mm: a deflection well above round-off
+    assert np.abs(bf.samples_mm[0] - ref).max() < 1e-6 * np.abs(ref) + 1e-9
+    assert describe_speed(s).kind == "stable period-1"
+    with pytest.raises(InputError, match="'L2' is not allowed: give one of the links"):
+        brute_force_diagram(s, [600.0], transient=1, samples=1, link="L2")

@@ -201,9 +201,12 @@ class LinkageBranch:
         base = self.period_map if isinstance(self.period_map, LinkagePeriodMap) else self.period_map.base
         return base.steady(q.x, q.p)
 
-    def peak_to_peak_mm(self, link: str = "L2", direction: str = "transverse") -> Array:
+    def peak_to_peak_mm(self, link: str | None = None, direction: str = "transverse") -> Array:
         """Peak-to-peak midpoint deflection (mm) at every point (one period each; on a
-        period-2 branch over the first of the two periods)."""
+        period-2 branch over the first of the two periods); ``link`` defaults to the
+        description's first coupler (L2 of the five-bar)."""
+        base = self.period_map if isinstance(self.period_map, LinkagePeriodMap) else self.period_map.base
+        link = _link(base.setup, link)
         key = (link, direction)
         if key not in self._pp:
             self._pp[key] = np.array([self.steady(i).peak_to_peak_mm(link, direction)
@@ -410,6 +413,9 @@ class BruteForceDiagram:
         a period-1 motion.
     diverged : ndarray (m,) of bool
         The march failed (a Newton step of the integrator did not converge).
+    link : str
+        The link sampled (``brute_force_diagram(..., link=)``; by default the description's first
+        coupler, L2 of the five-bar).
     """
 
     p: Array
@@ -418,7 +424,7 @@ class BruteForceDiagram:
     states: Array
     change: Array
     diverged: NDArray[np.bool_]
-    link: str = "L2"
+    link: str
 
     def period(self, rtol: float = 1e-6) -> NDArray[np.int_]:
         """Smallest period (1, 2, 3, 4) that the samples repeat with to ``rtol`` of their
@@ -435,9 +441,20 @@ class BruteForceDiagram:
         return out
 
 
+def _link(setup: Setup, link: str | None) -> str:
+    """``link``, checked against the linkage description; ``None``: its first coupler (the
+    first link between two pins: L2 of the five-bar, the coupler of a four-bar)."""
+    linkage = setup.params.linkage
+    if link is None:
+        return linkage.couplers[0]
+    if link not in linkage.link_names:
+        raise InputError(f"link = {link!r} is not allowed: give one of the links {list(linkage.link_names)}")
+    return link
+
+
 def _midpoint0(dyn, u: Array, link: str) -> float:
-    th1, th4 = dyn.crank_angles(np.zeros(1))
-    _, tr = dyn.model.link_displacement(dyn.expand(u[None, :]), th1, th4, link, 0.5)
+    """The transverse midpoint deflection (mm) of ``link`` in state ``u`` at crank angle 0."""
+    _, tr = dyn.model.link_displacement(dyn.expand(u[None, :]), *dyn.crank_angles(np.zeros(1)), link, 0.5)
     return float(1e3 * tr[0])
 
 
@@ -450,7 +467,7 @@ def brute_force_diagram(
     *,
     transient: int = 200,
     samples: int = 16,
-    link: str = "L2",
+    link: str | None = None,
     both_ways: bool = True,
 ) -> BruteForceDiagram:
     """The bifurcation diagram by brute force: march, sample once per period, step the parameter.
@@ -463,6 +480,7 @@ def brute_force_diagram(
     uses only the integrator's periods, no Newton on periodicity, no monodromy matrix.
     """
     s = as_setup(setup)
+    link = _link(s, link)
     f = linkage_period_map(s, parameter)
     vals = np.asarray(values, float).ravel()
     if vals.size < 1 or not np.all(np.isfinite(vals)):
@@ -593,9 +611,10 @@ def _describe(f: LinkagePeriodMap, p: float, st: SteadyState, periods: int,
         o2 = out.found
         state = "stable" if o2.stable else "unstable"
         _, dyn = f.dynamics(p)
-        y1 = _midpoint0(dyn, o2.x[:dyn.n], "L2")
-        y2 = _midpoint0(dyn, f(o2.x, p, False)[0][:dyn.n], "L2")
-        return SpeedReport(head + f"{state} period-2 orbit (L2 midpoint at crank angle 0 alternating "
+        link = _link(f.setup, None)
+        y1 = _midpoint0(dyn, o2.x[:dyn.n], link)
+        y2 = _midpoint0(dyn, f(o2.x, p, False)[0][:dyn.n], link)
+        return SpeedReport(head + f"{state} period-2 orbit ({link} midpoint at crank angle 0 alternating "
                            f"{y1:.4g} / {y2:.4g} mm; largest multiplier of the twice-iterated map |mu| = "
                            f"{o2.spectral_radius:.4g})", "period-2", orb, o2)
     if out.kind == "other period-1":
