@@ -268,3 +268,17 @@ def test_four_bar_brute_force_and_speed_report_use_its_own_links():
     assert describe_speed(s).kind == "stable period-1"
     with pytest.raises(InputError, match="'L2' is not allowed: give one of the links"):
         brute_force_diagram(s, [600.0], transient=1, samples=1, link="L2")
+
+
+def test_four_bar_nonlinear_force_between_the_step_times():
+    """Off the step times the nonlinear force is computed from the crank angles (one crank for
+    the four-bar; two were unpacked before): it joins the sampled values at the step times
+    continuously, its change from a step time first order in the time offset."""
+    dyn = Setup(FOUR, crank_speed_rpm=600, steps_per_period=40, motors=False).dynamics()
+    rng = np.random.default_rng(3)
+    u = 1e-3 * rng.standard_normal(dyn.n)
+    f0, K0 = dyn.nonlinear(u, 5 * dyn.dt)  # a step time: the sampled configuration
+    assert np.abs(f0).max() > 0
+    d = [np.abs(dyn.nonlinear(u, 5 * dyn.dt + h * dyn.dt)[0] - f0).max() for h in (1e-3, 5e-4)]
+    assert 0 < d[1] < d[0] < 1e-2 * np.abs(f0).max()
+    assert 1.8 < d[0] / d[1] < 2.2  # first order in the offset

@@ -341,8 +341,7 @@ class LinkageDynamics:
                 self._geometry = self._at_step_times(
                     "geometry", lambda: self._nl.geometry(*self.crank_angles(self.t)))
             return self._geometry.at(k % self.steps_per_period)
-        th1, th4 = self.crank_angles(t)
-        return self._nl.geometry(float(th1), float(th4))
+        return self._nl.geometry(*(float(theta) for theta in self.crank_angles(t)))
 
     # --- helpers ------------------------------------------------------------------------------
     def expand(self, u: ArrayLike) -> NDArray:
