@@ -95,3 +95,28 @@ def test_show_displays_a_fixed_snippet_and_writes_the_page(steady, tmp_path, mon
     for bad in ("/tmp/x.html", "../x.html", "anim/x.gif"):
         with pytest.raises(ValueError, match="path = "):
             animation.show(a, bad)
+
+
+def test_a_four_bar_is_drawn_from_its_own_description():
+    """The frames and animations take the links, crank angles, scale and ground of the linkage
+    description (they read the five-bar's L1..L5 and two cranks before): for the four-bar the
+    rigid frames put the joints where the loop closure does, and the elastic part of the
+    coupler's midpoint is the steady state's deflection there times the scale."""
+    from fivebar.kinematics import positions
+
+    four = fivebar.load_params([fivebar.DEFAULT_PARAMS_PATH, fivebar.FOURBAR_PARAMS_PATH])
+    st = fivebar.steady_state(fivebar.Setup(four, crank_speed_rpm=600, steps_per_period=200, motors=False))
+    fr = animation.linkage_frames(st, frames=4, points=5)
+    assert sorted(fr.rigid_mm) == ["coupler", "crank", "rocker"]
+    (theta,) = st.dynamics.crank_angles(st.t[:-1:50])
+    P = positions(four, theta)
+    for link, (a, b) in four.linkage.link_ends.items():
+        assert np.allclose(fr.rigid_mm[link][:, 0], 1e3 * P[a], atol=1e-9)
+        assert np.allclose(fr.rigid_mm[link][:, -1], 1e3 * P[b], atol=1e-9)
+    mid = fr.deformed_mm["coupler"][:, 2] - fr.rigid_mm["coupler"][:, 2]  # s = 0.5 (5 points)
+    d = P["C"] - P["B"]
+    normal = np.stack([-d[:, 1], d[:, 0]], axis=-1) / np.linalg.norm(d, axis=-1, keepdims=True)
+    transverse = np.einsum("ij,ij->i", mid, normal) / fr.scale
+    assert np.abs(transverse - st.midpoint_mm("coupler")[:-1:50]).max() < 1e-9 + 1e-9 * fr.peak_mm
+    assert np.ptp(st.midpoint_mm("coupler")) > 1e-3
+    assert len(animation.animate_modes(four, n_modes=2, frames=3).frames) == 3

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import InputError
-from .kinematics import LINKS, crank_laws, positions
+from .kinematics import crank_laws, positions
 from .params import Params
 
 __all__ = [
@@ -54,17 +54,25 @@ def nice_scale(x: float) -> float:
     return 10.0**e  # pragma: no cover
 
 
+def _coupler_length(params: Params) -> float:
+    """The length (m) of the description's first coupler (L2 of the five-bar): the drawings'
+    scale."""
+    lk = params.linkage
+    return lk.link(lk.couplers[0]).length
+
+
 def _check_frames(frames: int) -> int:
     if isinstance(frames, bool) or int(frames) != frames or not 2 <= frames <= 400:
         raise InputError(f"frames = {frames!r} is not allowed: give an integer from 2 to 400")
     return int(frames)
 
 
-def _shapes(model, U: NDArray, th1: NDArray, th4: NDArray, points: int) -> tuple[dict, dict]:
-    """Rigid and elastic points (m) of every link: rigid (F, points, 2), elastic (F, points, 2)."""
-    P = positions(model.params, th1, th4)
+def _shapes(model, U: NDArray, theta: tuple[NDArray, ...], points: int) -> tuple[dict, dict]:
+    """Rigid and elastic points (m) of every link of the description: rigid (F, points, 2),
+    elastic (F, points, 2); ``theta`` the angles of the driven cranks (F,) each."""
+    P = positions(model.params, *theta)
     rigid, elastic = {}, {}
-    for link, (a, b) in LINKS.items():
+    for link, (a, b) in model.params.linkage.link_ends.items():
         d = P[b] - P[a]  # (F, 2)
         e = d / np.linalg.norm(d, axis=-1, keepdims=True)
         n = np.stack([-e[:, 1], e[:, 0]], axis=-1)
@@ -72,7 +80,7 @@ def _shapes(model, U: NDArray, th1: NDArray, th4: NDArray, points: int) -> tuple
         rigid[link] = P[a][:, None, :] + s[None, :, None] * d[:, None, :]
         el = np.empty_like(rigid[link])
         for j, sj in enumerate(s):
-            ax, tr = model.link_displacement(U, th1, th4, link, float(sj))
+            ax, tr = model.link_displacement(U, *theta, link, float(sj))
             el[:, j] = ax[:, None] * e + tr[:, None] * n
         elastic[link] = el
     return rigid, elastic
@@ -103,7 +111,8 @@ def linkage_frames(steady, scale: float | None = None, frames: int = 48, points:
         From :func:`fivebar.steady.steady_state`.
     scale
         Magnification of the elastic displacement; ``None`` chooses the 1-2-5 number that
-        draws the largest displacement at about 8 % of the coupler length L2.
+        draws the largest displacement at about 8 % of the length of the first coupler (L2 of
+        the five-bar).
     frames
         Frames over the period (equally spaced samples of the steady state).
     points
@@ -115,11 +124,10 @@ def linkage_frames(steady, scale: float | None = None, frames: int = 48, points:
     dyn = steady.dynamics
     S = len(steady.t) - 1
     idx = np.round(np.arange(F) * S / F).astype(int)
-    th1, th4 = dyn.crank_angles(steady.t[idx])
-    rigid, elastic = _shapes(dyn.model, dyn.expand(steady.u[idx]), th1, th4, points)
+    rigid, elastic = _shapes(dyn.model, dyn.expand(steady.u[idx]), dyn.crank_angles(steady.t[idx]), points)
     peak = max(float(np.linalg.norm(v, axis=-1).max()) for v in elastic.values())
     if scale is None:
-        scale = nice_scale(0.08 * dyn.params.L2 / peak) if peak > 0 else 1.0
+        scale = nice_scale(0.08 * _coupler_length(dyn.params) / peak) if peak > 0 else 1.0
     deformed = {k: 1e3 * (rigid[k] + scale * elastic[k]) for k in rigid}
     return LinkageFrames(steady.crank_angle_deg[idx], {k: 1e3 * v for k, v in rigid.items()}, deformed,
                          float(scale), 1e3 * peak)
@@ -146,10 +154,12 @@ class ModeFrames:
 
 def mode_frames(params: Params, n_modes: int = 3, frames: int = 36, points: int = _POINTS,
                 motors: bool = True) -> ModeFrames:
-    """The ``n_modes`` lowest mode shapes at ``frames`` crank angles over one turn of AB.
+    """The ``n_modes`` lowest mode shapes at ``frames`` crank angles over one turn of the first
+    crank (AB of the five-bar).
 
-    Each shape is normalised to a largest link displacement of 6 % of L2 and its sign
-    chosen to follow the previous frame (mode shapes have no sign of their own).  The modes
+    Each shape is normalised to a largest link displacement of 6 % of the first coupler's length
+    (L2 of the five-bar) and its sign chosen to follow the previous frame (mode shapes have no
+    sign of their own).  The modes
     are numbered by frequency at each angle.
     """
     from .assembly import build_model
@@ -160,20 +170,20 @@ def mode_frames(params: Params, n_modes: int = 3, frames: int = 36, points: int 
         raise InputError(f"n_modes = {n_modes!r} is not allowed: give an integer number of modes from 1 to 6")
     n = int(n_modes)
     phi = np.arange(F) * 2 * np.pi / F
-    th1, _, _, th4, _, _ = crank_laws(params, phi / params.crank_speed_rad_s)
+    theta = crank_laws(params, phi / params.crank_speed_rad_s)[0::3]  # the angle of each driven crank
     model = build_model(params, motors=motors)
     f = np.empty((F, n))
     V = np.empty((F, model.n, n))
     for i in range(F):
-        m = modes(params, float(th1[i]), float(th4[i]), n, model=model)
+        m = modes(params, *(float(a[i]) for a in theta), n_modes=n, model=model)
         f[i], V[i] = m.frequencies, m.shapes
         if i:
             V[i] *= np.sign(np.einsum("jk,jk->k", V[i], V[i - 1]) + 1e-300)
     rigid = None
     shapes = []
-    amplitude = 0.06 * params.L2
+    amplitude = 0.06 * _coupler_length(params)
     for k in range(n):
-        r, el = _shapes(model, V[:, :, k], th1, th4, points)
+        r, el = _shapes(model, V[:, :, k], theta, points)
         rigid = r if rigid is None else rigid
         peak = np.max([np.linalg.norm(v, axis=-1).max(axis=1) for v in el.values()], axis=0)  # (F,)
         shapes.append({L: 1e3 * (r[L] + (amplitude / peak)[:, None, None] * el[L]) for L in r})
@@ -294,7 +304,7 @@ def animate_linkage(steady, scale: float | None = None, frames: int = 48, dpi: i
     """
     import matplotlib.pyplot as plt
 
-    from .plotting import LINK_COLORS
+    from .plotting import link_colors
 
     data = linkage_frames(steady, scale, frames)
     fig, ax = plt.subplots(figsize=(5.0, 4.2), layout="constrained")
@@ -302,9 +312,11 @@ def animate_linkage(steady, scale: float | None = None, frames: int = 48, dpi: i
         _limits(ax, list(data.rigid_mm.values()) + list(data.deformed_mm.values()))
         ax.set_xlabel("x (mm)")
         ax.set_ylabel("y (mm)")
-        ax.plot([0, 1e3 * steady.dynamics.params.L5], [0, 0], "--", color="0.5", lw=1)
+        ground = [1e3 * np.asarray(j.at) for j in steady.dynamics.params.linkage.ground]
+        ax.plot(*np.transpose(ground), "--", color="0.5", lw=1)
         ghosts = {k: ax.plot([], [], color="0.75", lw=1.2)[0] for k in data.rigid_mm}
-        lines = {k: ax.plot([], [], color=LINK_COLORS[k], lw=2.2, label=k)[0] for k in data.deformed_mm}
+        colors = link_colors(steady.dynamics.params.linkage)
+        lines = {k: ax.plot([], [], color=colors[k], lw=2.2, label=k)[0] for k in data.deformed_mm}
         joints = ax.plot([], [], "o", ms=4, mfc="white", mec="black")[0]
         ax.legend(loc="upper right", ncols=4, fontsize=8)
         title = ax.set_title("")
@@ -334,9 +346,10 @@ def animate_modes(params: Params, n_modes: int = 3, frames: int = 36, dpi: int =
     """
     import matplotlib.pyplot as plt
 
-    from .plotting import LINK_COLORS, PALETTE
+    from .plotting import PALETTE, link_colors
 
     data = mode_frames(params, n_modes, frames, motors=motors)
+    colors = link_colors(params.linkage)
     n = int(n_modes)
     fig = plt.figure(figsize=(6.5, 4.4), layout="constrained")
     grid = fig.add_gridspec(2, n, height_ratios=[1.3, 1.0])
@@ -350,7 +363,7 @@ def animate_modes(params: Params, n_modes: int = 3, frames: int = 36, dpi: int =
             ax.set_yticks([])
             ax.grid(False)
             ghosts = {L: ax.plot([], [], color="0.75", lw=1.2)[0] for L in data.rigid_mm}
-            lines = {L: ax.plot([], [], color=LINK_COLORS[L], lw=2.0)[0] for L in data.rigid_mm}
+            lines = {L: ax.plot([], [], color=colors[L], lw=2.0)[0] for L in data.rigid_mm}
             arts.append((ax.set_title(""), ghosts, lines))
         axc = axes[n]
         for k in range(n):

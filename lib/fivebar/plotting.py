@@ -30,6 +30,7 @@ __all__ = [
     "OKABE_ITO",
     "PALETTE",
     "LINK_COLORS",
+    "link_colors",
     "COLUMN_WIDTH_IN",
     "MIN_FONT_PT",
     "UNITS",
@@ -67,6 +68,13 @@ LINK_COLORS: dict[str, str] = {
     "L4": OKABE_ITO["orange"],
     "L5": "0.35",
 }
+
+
+def link_colors(linkage) -> dict[str, str]:
+    """Link name -> colour for the links of a linkage description: :data:`LINK_COLORS` for the
+    paper's L1..L4, the Okabe-Ito colours in turn for the links of any other linkage."""
+    cycle = list(OKABE_ITO.values())
+    return {k.name: LINK_COLORS.get(k.name, cycle[(i + 1) % len(cycle)]) for i, k in enumerate(linkage.links)}
 
 
 #: Width (in) of a figure for the book's text column.  The text column of the built book is
@@ -320,8 +328,7 @@ def draw_linkage(
     chain, g0, g1 = lk.chain, lk.chain[0], lk.chain[-1]
     centre = np.mean([P[k] for k in chain], axis=0)
     frame_name = f"L{len(lk.links) + 1}" if all(k.name == f"L{i + 1}" for i, k in enumerate(lk.links)) else "frame"
-    colors = {k.name: LINK_COLORS.get(k.name, list(OKABE_ITO.values())[(i + 1) % len(OKABE_ITO)])
-              for i, k in enumerate(lk.links)}
+    colors = link_colors(lk)
     colors[frame_name] = LINK_COLORS["L5"]
 
     if ground:

@@ -65,8 +65,6 @@ class Response:
     method
         What computed it: "shooting", "march", "continuation" (steady states), "transient",
         "quasi-static", "radau", "multiple scales", or the name given.
-    setup
-        The :class:`fivebar.setup.Setup` solved (``dynamics.setup``).
     scheme
         The time integrator (None where none was used).
     solver
