@@ -9,6 +9,7 @@ from fivebar.assembly import build_model, paper_b_matrices
 from fivebar.elements import gauss_points, shape_functions
 from fivebar.kinematics import rigid_state
 from fivebar.modal import natural_frequencies
+from fivebar.setup import Setup
 
 P = load_params()
 ANGLES = [(0.0, 0.0), (1.1, -2.0), (2.5, 0.7), (-0.8, 3.0)]
@@ -147,7 +148,7 @@ def test_inertial_load_is_the_consistent_load_of_the_rigid_acceleration_field():
 @pytest.mark.parametrize("motors", [True, False])
 def test_frozen_frequencies_converge_under_refinement(motors):
     meshes = [(1, 2, 2, 1), (2, 4, 4, 2), (4, 8, 8, 4), (8, 16, 16, 8)]
-    f = np.array([natural_frequencies(P, 0.4, 1.3, n_modes=6, motors=motors, elements_per_link=e) for e in meshes])
+    f = np.array([natural_frequencies(Setup(P, motors=motors, elements_per_link=e), 0.4, 1.3, n_modes=6) for e in meshes])
     err = np.abs(f[:-1] - f[-1]) / f[-1]
     assert np.all(f[:-1] >= f[-1] * (1 - 1e-9))  # consistent mass: from above (to eigensolver round-off)
     assert np.all(err[1] <= err[0] + 1e-12) and np.all(err[2] <= err[1] + 1e-12)
@@ -158,12 +159,12 @@ def test_mean_frequencies_and_averaged_matrix_modes():
     from fivebar.kinematics import crank_laws
     from fivebar.modal import averaged_matrix_modes, frequencies_along_cycle, mean_frequencies
 
-    fm = mean_frequencies(P, steps=12, n_modes=4)
-    f = frequencies_along_cycle(P, np.arange(12) * np.pi / 6, n_modes=4)
+    fm = mean_frequencies(Setup(P, steps_per_period=24), n_modes=4)
+    f = frequencies_along_cycle(P, np.arange(24) * np.pi / 12, n_modes=4)
     assert np.allclose(fm, f.mean(axis=0)) and np.all(f.min(0) <= fm) and np.all(fm <= f.max(0))
-    md = averaged_matrix_modes(P, steps=12, n_modes=5, frame="corotating")
+    md = averaged_matrix_modes(Setup(P, steps_per_period=24), n_modes=5, frame="corotating")
     m = md.model
-    t = np.arange(12) * P.period / 12
+    t = np.arange(24) * P.period / 24
     th1, _, _, th4, _, _ = crank_laws(P, t)
     M, K = m.matrices(th1, th4)
     T = m.corotating_transform(th1, th4)

@@ -198,7 +198,7 @@ def test_four_bar_frozen_frequencies_converge_from_above_under_refinement():
     (Rayleigh-Ritz); the description's mesh is within 1e-4 of one eight times finer."""
     phi = np.linspace(0.0, 2 * np.pi, 5)[:-1]
     meshes = [(1, 2, 2), (2, 4, 4), (4, 8, 8), (8, 16, 16)]
-    f = [frequencies_along_cycle(FOUR, phi, n_modes=4, elements_per_link=e) for e in meshes]
+    f = [frequencies_along_cycle(Setup(FOUR, elements_per_link=e), phi, n_modes=4) for e in meshes]
     for coarse, fine in zip(f, f[1:]):
         assert np.all(coarse >= fine * (1 - 1e-12))
     err = [np.abs(x - f[-1]) / f[-1] for x in f[:-1]]
@@ -216,7 +216,7 @@ def test_four_bar_frozen_frequencies_against_the_multibody_model():
     same = FOUR.replace(rotary_inertia=0)  # ANCF cables carry no rotary inertia
     for theta in (0.0, 2.0, 4.5):
         f_mb = multibody.multibody_frequencies(FOUR, theta, n=3, elements_per_link=(4, 8, 8))
-        f = fivebar.natural_frequencies(same, theta, n_modes=3, elements_per_link=(4, 8, 8))
+        f = fivebar.natural_frequencies(Setup(same, elements_per_link=(4, 8, 8)), theta, n_modes=3)
         assert np.allclose(f, f_mb, rtol=1e-4), (theta, f, f_mb)
 
 

@@ -29,11 +29,11 @@ def test_frozen_frequencies_match_library(params, depth, angles):
     p = params.replace(bending_depth=depth)
     f = fivebar.multibody_frequencies(p, *angles, n=6, elements_per_link=MESH)
     # same physics (no rotary inertia in an ANCF cable), same mesh
-    ref = fivebar.natural_frequencies(p.replace(rotary_inertia=0), *angles, n_modes=6, motors=False,
-                                      elements_per_link=MESH)
+    ref = fivebar.natural_frequencies(fivebar.Setup(p.replace(rotary_inertia=0), motors=False, elements_per_link=MESH),
+                                      *angles, n_modes=6)
     np.testing.assert_allclose(f, ref, rtol=5e-3)
     # the library's defaults (paper's mesh, rotary inertia): the four lowest modes
-    lib = fivebar.natural_frequencies(p, *angles, n_modes=4, motors=False)
+    lib = fivebar.natural_frequencies(fivebar.Setup(p, motors=False), *angles, n_modes=4)
     np.testing.assert_allclose(f[:4], lib, rtol=5e-3)
 
 

@@ -155,7 +155,7 @@ def test_analyses_take_a_setup_or_params_alike():
 
 def _analyses():
     """(name, function, the arguments after the problem) of every analysis of the linkage."""
-    from fivebar import branches, figure6, linkage_multiscale as lm, resonance, response, steady, sweep
+    from fivebar import branches, figure6, linkage_multiscale as lm, modal, resonance, response, steady, sweep
     from fivebar.control_simulation import closed_loop_multipliers, simulate_cycle
 
     return [
@@ -176,6 +176,10 @@ def _analyses():
         ("follow", branches.follow, (300.0,)), ("describe_speed", branches.describe_speed, ()),
         ("brute_force_diagram", branches.brute_force_diagram, ([100.0],)),
         ("linkage_period_map", branches.linkage_period_map, ()),
+        ("modes", modal.modes, (0.0, 0.0)), ("natural_frequencies", modal.natural_frequencies, (0.0, 0.0)),
+        ("frequencies_along_cycle", modal.frequencies_along_cycle, ([0.0],)),
+        ("mean_frequencies", modal.mean_frequencies, ()),
+        ("averaged_matrix_modes", modal.averaged_matrix_modes, ()),
     ]
 
 

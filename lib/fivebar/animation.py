@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from .errors import InputError
 from .kinematics import crank_laws, positions
+from .setup import Setup
 from .params import Params
 
 __all__ = [
@@ -188,7 +189,7 @@ def mode_frames(params: Params, n_modes: int = 3, frames: int = 36, points: int 
         peak = np.max([np.linalg.norm(v, axis=-1).max(axis=1) for v in el.values()], axis=0)  # (F,)
         shapes.append({L: 1e3 * (r[L] + (amplitude / peak)[:, None, None] * el[L]) for L in r})
     grid = np.linspace(0.0, 2 * np.pi, 145)
-    curve = frequencies_along_cycle(params, grid, n_modes=n, motors=motors)
+    curve = frequencies_along_cycle(Setup(params, motors=motors), grid, n_modes=n)
     return ModeFrames(np.degrees(phi), f, {k: 1e3 * v for k, v in rigid.items()}, shapes,
                       1e3 * amplitude, np.degrees(grid), curve)
 

@@ -24,6 +24,7 @@ from .errors import InputError
 from .assembly import Model, build_model
 from .kinematics import crank_laws
 from .params import Params
+from .setup import Setup, analysis, as_setup
 
 __all__ = [
     "Modes",
@@ -60,110 +61,86 @@ def _eig(M: NDArray, K: NDArray, n: int | None) -> tuple[NDArray, NDArray]:
     return np.sqrt(w2) / (2.0 * np.pi), V
 
 
-def _model(params: Params, motors: bool, elements_per_link, model: Model | None) -> Model:
+def _model(s: Setup, model: Model | None) -> Model:
     if model is not None:
         return model
-    return build_model(params, elements_per_link=elements_per_link, motors=motors)
+    return build_model(s.params, elements_per_link=s.elements_per_link, motors=s.motors)
 
 
-def _theta(theta1, theta4) -> tuple:
-    """The crank angles: ``theta1, theta4`` (the five-bar), ``theta1`` alone (theta4 None: one
-    driven crank) or a sequence of angles as ``theta1``."""
-    if theta4 is None:
-        return tuple(np.atleast_1d(theta1)) if np.ndim(theta1) else (theta1,)
-    return (theta1, theta4)
+def _angles(s: Setup, theta: tuple) -> tuple:
+    """The crank angles of a frozen configuration, one per driven crank of the description."""
+    cranks = s.params.linkage.cranks
+    if len(theta) != len(cranks):
+        raise InputError(
+            f"{len(theta)} crank angle(s) {theta!r} are not allowed: the linkage has {len(cranks)} driven "
+            f"crank(s) ({', '.join(j.name for j in cranks)}), give one angle (rad) for each")
+    return theta
 
 
-def modes(
-    params: Params,
-    theta1: float,
-    theta4: float | None = None,
-    n_modes: int | None = 6,
-    motors: bool = True,
-    elements_per_link: tuple[int, int, int, int] | None = None,
-    model: Model | None = None,
-) -> Modes:
+@analysis
+def modes(setup: Setup | Params, *theta: float, n_modes: int | None = 6, model: Model | None = None) -> Modes:
     """Lowest ``n_modes`` modes at one frozen configuration (crank angles in rad).
 
-    ``theta1, theta4`` are the five-bar's crank angles; a linkage with one driven crank takes
-    ``theta1`` alone (``modes(params, theta, n_modes=6)``).  ``n_modes=None`` returns all modes.  Pass a prebuilt ``model`` to skip the assembly set-up.
+    ``modes(setup, theta1, theta4)`` for the five-bar (one angle per driven crank of the
+    description: ``modes(setup, theta)`` for a four-bar); the problem's ``motors`` (False: the
+    crank roots clamped, the motor elements left out) and ``elements_per_link`` choose the model
+    (:class:`fivebar.setup.Setup`; a Params is ``Setup(params)``).  ``n_modes=None`` returns all
+    modes.  Pass a prebuilt ``model`` to skip the assembly set-up.
     """
-    m = _model(params, motors, elements_per_link, model)
+    s = as_setup(setup)
+    theta = _angles(s, theta)
+    m = _model(s, model)
     if n_modes is not None and n_modes > m.n:
         raise InputError(
             f"n_modes = {n_modes!r} modes is more than the model has: at most {m.n} (its DOFs; refine the mesh "
-            "with elements_per_link for more)"
+            "with the set-up's elements_per_link for more)"
         )
-    M, K = m.matrices(*_theta(theta1, theta4))
+    M, K = m.matrices(*theta)
     f, V = _eig(M, K, n_modes)
     return Modes(f, V, m)
 
 
-def natural_frequencies(
-    params: Params,
-    theta1: float,
-    theta4: float | None = None,
-    n_modes: int = 6,
-    motors: bool = True,
-    elements_per_link: tuple[int, int, int, int] | None = None,
-) -> NDArray:
-    """The ``n_modes`` lowest natural frequencies (Hz) at crank angles ``theta1, theta4`` (rad;
-    ``theta1`` alone for one driven crank, as :func:`modes`).
-
-    ``motors=False`` clamps the crank roots (rigid motor shafts) and leaves the motor
-    elements out.  ``elements_per_link`` refines the mesh (default the paper's 1-2-2-1).
-    """
+@analysis
+def natural_frequencies(setup: Setup | Params, *theta: float, n_modes: int = 6) -> NDArray:
+    """The ``n_modes`` lowest natural frequencies (Hz) at the crank angles ``theta`` (rad, one
+    per driven crank, as :func:`modes`), of the problem's model (its ``motors`` and
+    ``elements_per_link``)."""
     if isinstance(n_modes, bool) or int(n_modes) != n_modes or n_modes < 1:
         raise InputError(f"n_modes = {n_modes!r} is not allowed: give a positive integer number of modes")
-    return modes(params, theta1, theta4, int(n_modes), motors, elements_per_link).frequencies
+    return modes(setup, *theta, n_modes=int(n_modes)).frequencies
 
 
-def frequencies_along_cycle(
-    params: Params,
-    crank_angles: ArrayLike,
-    n_modes: int = 6,
-    motors: bool = True,
-    elements_per_link: tuple[int, int, int, int] | None = None,
-) -> NDArray:
+@analysis
+def frequencies_along_cycle(setup: Setup | Params, crank_angles: ArrayLike, n_modes: int = 6) -> NDArray:
     """Lowest ``n_modes`` natural frequencies (Hz) at the configurations of the default crank laws.
 
     ``crank_angles`` are the phase Omega t of the drive (rad; for the five-bar the
     angle of crank AB measured from its initial angle, crank DE following with the speed
-    ratio of the parameters).  Returns shape ``(len(crank_angles), n_modes)``.
+    ratio of the parameters).  Returns shape ``(len(crank_angles), n_modes)``.  The model is the
+    problem's (its ``motors`` and ``elements_per_link``).
     """
+    s = as_setup(setup)
     phi = np.atleast_1d(np.asarray(crank_angles, float))
-    th = crank_laws(params, phi / params.crank_speed_rad_s)[0::3]
-    m = build_model(params, elements_per_link=elements_per_link, motors=motors)
-    M, K = m.matrices(*th)
+    th = crank_laws(s.params, phi / s.params.crank_speed_rad_s)[0::3]
+    M, K = _model(s, None).matrices(*th)
     return _eig(M, K, n_modes)[0]
 
 
-def mean_frequencies(
-    params: Params,
-    steps: int | None = None,
-    n_modes: int = 6,
-    motors: bool = True,
-    elements_per_link: tuple[int, int, int, int] | None = None,
-) -> NDArray:
+@analysis
+def mean_frequencies(setup: Setup | Params, n_modes: int = 6) -> NDArray:
     """The paper's "instantaneous natural frequency mean" (3.3): the period mean (Hz) of the
     ``n_modes`` lowest instantaneous natural frequencies, mode by mode (sorted by frequency), over
-    ``steps`` equally spaced instants of one period (default the parameters' S)."""
-    S = params.steps_per_period if steps is None else int(steps)
-    if S < 1:
-        raise InputError(f"steps = {steps!r} is not allowed: give a positive integer")
+    the problem's S (``steps_per_period``) equally spaced instants of one period."""
+    s = as_setup(setup)
+    S = s.steps_per_period
     phi = np.arange(S) * 2.0 * np.pi / S
-    return frequencies_along_cycle(params, phi, n_modes, motors, elements_per_link).mean(axis=0)
+    return frequencies_along_cycle(s, phi, n_modes).mean(axis=0)
 
 
-def averaged_matrix_modes(
-    params: Params,
-    steps: int | None = None,
-    n_modes: int | None = None,
-    motors: bool = True,
-    elements_per_link: tuple[int, int, int, int] | None = None,
-    frame: str = "global",
-) -> Modes:
-    """Modes of the system whose M and K are the period means of M(t) and K(t).
+@analysis
+def averaged_matrix_modes(setup: Setup | Params, n_modes: int | None = None, frame: str = "global") -> Modes:
+    """Modes of the system whose M and K are the period means of M(t) and K(t) (over the
+    problem's S instants).
 
     This is the other possible reading of the "mean system" of (3.1)-(3.3).  The book shows
     that it is not a useful one for this linkage: averaged in the global frame
@@ -173,14 +150,13 @@ def averaged_matrix_modes(
     by tens of degrees.  Either way the frequencies come out far above every instantaneous
     one.  Use :func:`mean_frequencies` for the paper's frequency means.
     """
-    S = params.steps_per_period if steps is None else int(steps)
-    if S < 1:
-        raise InputError(f"steps = {steps!r} is not allowed: give a positive integer")
+    s = as_setup(setup)
     if frame not in ("corotating", "global"):
         raise InputError(f"frame = {frame!r} is not allowed: use 'corotating' or 'global'")
+    S, params = s.steps_per_period, s.params
     t = np.arange(S) * params.period / S
     th = crank_laws(params, t)[0::3]
-    m = build_model(params, elements_per_link=elements_per_link, motors=motors)
+    m = _model(s, None)
     M, K = m.matrices(*th)
     if frame == "corotating":
         T = m.corotating_transform(*th)

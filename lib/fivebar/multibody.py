@@ -289,7 +289,7 @@ def multibody_frequencies(
     ``f = multibody_frequencies(params, theta1, theta4)``: Exudyn's linearisation at the
     undeformed configuration of the crank angles ``theta1, theta4`` (rad; ``theta1`` alone for
     one driven crank), projected on the null space of the constraints.  Compare with
-    ``fivebar.natural_frequencies(params, theta1, theta4, n, motors=False)``.
+    ``fivebar.natural_frequencies(fivebar.Setup(params, motors=False), theta1, theta4, n_modes=n)``.
     """
     import scipy.linalg
 
