@@ -215,7 +215,7 @@ def test_four_bar_frozen_frequencies_against_the_multibody_model():
 
     same = FOUR.replace(rotary_inertia=0)  # ANCF cables carry no rotary inertia
     for theta in (0.0, 2.0, 4.5):
-        f_mb = multibody.multibody_frequencies(FOUR, theta, n=3, elements_per_link=(4, 8, 8))
+        f_mb = multibody.multibody_frequencies(FOUR, theta, n_modes=3, elements_per_link=(4, 8, 8))
         f = fivebar.natural_frequencies(Setup(same, elements_per_link=(4, 8, 8)), theta, n_modes=3)
         assert np.allclose(f, f_mb, rtol=1e-4), (theta, f, f_mb)
 

@@ -27,7 +27,7 @@ def params():
 @pytest.mark.parametrize("angles", [(0.0, 0.0), (1.1, 4.0)])
 def test_frozen_frequencies_match_library(params, depth, angles):
     p = params.replace(bending_depth=depth)
-    f = fivebar.multibody_frequencies(p, *angles, n=6, elements_per_link=MESH)
+    f = fivebar.multibody_frequencies(p, *angles, n_modes=6, elements_per_link=MESH)
     # same physics (no rotary inertia in an ANCF cable), same mesh
     ref = fivebar.natural_frequencies(fivebar.Setup(p.replace(rotary_inertia=0), motors=False, elements_per_link=MESH),
                                       *angles, n_modes=6)
@@ -38,7 +38,7 @@ def test_frozen_frequencies_match_library(params, depth, angles):
 
 
 def test_damping_matches_modal_ratio_on_lowest_mode(params):
-    f = fivebar.multibody_frequencies(params, 0.0, 0.0, n=2, elements_per_link=MESH)
+    f = fivebar.multibody_frequencies(params, 0.0, 0.0, n_modes=2, elements_per_link=MESH)
     beta = 2 * params.damping_ratio / (2 * np.pi * f[0])
     fd, zeta = multibody.damping_ratios(params, 0.0, 0.0, beta, n=2, elements_per_link=MESH)
     assert zeta[0] == pytest.approx(params.damping_ratio, rel=1e-3)
@@ -67,8 +67,8 @@ def test_bad_input_is_named(params):
         fivebar.multibody_frequencies(params, 0.0, 0.0, elements_per_link=(1, 3, 2, 1))
     with pytest.raises(ValueError, match="steps_per_period"):
         fivebar.multibody_steady_state(params, steps_per_period=250, samples=100)
-    with pytest.raises(ValueError, match="n = 0"):
-        fivebar.multibody_frequencies(params, 0.0, 0.0, n=0)
+    with pytest.raises(ValueError, match="n_modes = 0"):
+        fivebar.multibody_frequencies(params, 0.0, 0.0, n_modes=0)
 
 
 def test_import_does_not_load_exudyn():

@@ -282,24 +282,24 @@ def frozen_system(
 
 
 def multibody_frequencies(
-    params: Params, theta1: float, theta4: float | None = None, n: int = 6, elements_per_link=DEFAULT_ELEMENTS
+    params: Params, theta1: float, theta4: float | None = None, n_modes: int = 6, elements_per_link=DEFAULT_ELEMENTS
 ) -> NDArray:
-    """The ``n`` lowest natural frequencies (Hz) of the frozen linkage, crank roots clamped.
+    """The ``n_modes`` lowest natural frequencies (Hz) of the frozen linkage, crank roots clamped.
 
     ``f = multibody_frequencies(params, theta1, theta4)``: Exudyn's linearisation at the
     undeformed configuration of the crank angles ``theta1, theta4`` (rad; ``theta1`` alone for
     one driven crank), projected on the null space of the constraints.  Compare with
-    ``fivebar.natural_frequencies(fivebar.Setup(params, motors=False), theta1, theta4, n_modes=n)``.
+    ``fivebar.natural_frequencies(fivebar.Setup(params, motors=False), theta1, theta4, n_modes=n_modes)``.
     """
     import scipy.linalg
 
-    if isinstance(n, bool) or int(n) != n or n < 1:
-        raise InputError(f"n = {n!r} is not allowed: give a positive integer number of modes")
+    if isinstance(n_modes, bool) or int(n_modes) != n_modes or n_modes < 1:
+        raise InputError(f"n_modes = {n_modes!r} is not allowed: give a positive integer number of modes")
     M, K, _ = frozen_system(params, theta1, theta4, elements_per_link)
     w2 = scipy.linalg.eigh(K, M, eigvals_only=True)
-    if len(w2) < n:
-        raise InputError(f"n = {n!r} is not allowed: the model has {len(w2)} modes")
-    return np.sqrt(np.clip(w2[: int(n)], 0.0, None)) / (2 * np.pi)
+    if len(w2) < n_modes:
+        raise InputError(f"n_modes = {n_modes!r} is not allowed: the model has {len(w2)} modes")
+    return np.sqrt(np.clip(w2[: int(n_modes)], 0.0, None)) / (2 * np.pi)
 
 
 def damping_ratios(
