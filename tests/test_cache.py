@@ -117,28 +117,28 @@ def test_sampled_matrices_from_the_store_are_those_sampled_afresh(monkeypatch):
     samples made with the store emptied; a hit shares the stored arrays (no copy)."""
     kw = dict(crank_speed_rpm=200, motors=False)
     clear_cache()
-    fresh = _arrays(LinkageDynamics(Setup(P, steps_per_period=40, **kw)))
+    fresh = _arrays(LinkageDynamics(Setup(P, steps_per_period=44, **kw)))
     calls = []
     real = LinkageDynamics._sample
     monkeypatch.setattr(LinkageDynamics, "_sample", lambda self, t: calls.append(np.size(t)) or real(self, t))
-    for other, sampled in ((80, []), (20, [20])):  # from 2 S: none sampled; from S / 2: the S / 2 new ones
+    for other, sampled in ((88, []), (22, [22])):  # from 2 S: none sampled; from S / 2: the S / 2 new ones (S = 44: S / 2 >= 2 m + 1)
         clear_cache()
         LinkageDynamics(Setup(P, steps_per_period=other, **kw))
         calls.clear()
-        d = LinkageDynamics(Setup(P, steps_per_period=40, **kw))
+        d = LinkageDynamics(Setup(P, steps_per_period=44, **kw))
         assert calls == sampled
         assert _same_bits(_arrays(d), fresh)
     calls.clear()
-    again = LinkageDynamics(Setup(P, steps_per_period=40, **kw))
+    again = LinkageDynamics(Setup(P, steps_per_period=44, **kw))
     assert calls == [] and _same_bits(_arrays(again), fresh)
     for name in "MCK":
         assert np.shares_memory(getattr(again.step_data, name), getattr(d.step_data, name))
     # another speed: M, C, K are the same arrays; F is the stored F / Omega^2 times the new
     # Omega^2, equal to sampling it afresh to rounding (the two products round differently)
-    other = LinkageDynamics(Setup(P, steps_per_period=40, crank_speed_rpm=437, motors=False))
+    other = LinkageDynamics(Setup(P, steps_per_period=44, crank_speed_rpm=437, motors=False))
     assert calls == [] and _same_bits(_arrays(other)[:3], fresh[:3])
     clear_cache()
-    direct = LinkageDynamics(Setup(P, steps_per_period=40, crank_speed_rpm=437, motors=False))
+    direct = LinkageDynamics(Setup(P, steps_per_period=44, crank_speed_rpm=437, motors=False))
     F, G = _arrays(other)[3], _arrays(direct)[3]
     assert np.abs(F - G).max() <= 1e-14 * np.abs(G).max() and not _same_bits([F], [fresh[3]])
 

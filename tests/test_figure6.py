@@ -16,7 +16,10 @@ def test_em_assumptions_do_not_move_the_linkage_and_damping_barely_does():
     damp = (Variant("damping_ratio", "zeta = 0.05", (("damping_ratio", 0.05),)),)
     df = assumption_effects(Setup(P, steps_per_period=50), em + damp)
     assert len(df) == 1 + len(em) + 1
-    assert np.all(df["L2 change (%)"].iloc[1:-1] == 0.0) and np.all(df["L3 change (%)"].iloc[1:-1] == 0.0)
+    # the electromagnetic terms act only on the decoupled rotor DOFs: no change but round-off (the
+    # load F = -M u_r'' at a speed is scaled from the speed that first sampled the set-up, equal to
+    # sampling it afresh to about 1e-14, so the two solves need not agree to the last bit)
+    assert np.all(np.abs(df["L2 change (%)"].iloc[1:-1]) < 1e-9) and np.all(np.abs(df["L3 change (%)"].iloc[1:-1]) < 1e-9)
     # far below every natural frequency the response is quasi-static: damping hardly matters
     assert abs(df["L2 change (%)"].iloc[-1]) < 1.0
 
