@@ -50,9 +50,10 @@ OK, NOT_FINITE, NO_CONVERGENCE, SINGULAR = 0, 1, 2, 3
 #: Entries of the scheme's coefficient array (:func:`coefficients`).
 DT, BDT2, GDT, C_UP, C_VP, AM, AF, CM, CC, CK = range(10)
 #: Rows of the step's work array: predictors, iterate, its velocity and acceleration, residual,
-#: the three products of the residual and the alpha history.
-UT, VT, U1, V1, A1, R, MA, CV, KU, HIST = range(10)
-NWORK = 10
+#: the three products of the residual, the alpha history and the accelerations of the two
+#: steps before (the nonlinear step's first iterate extrapolates them, :func:`predict`).
+UT, VT, U1, V1, A1, R, MA, CV, KU, HIST, AP1, AP2 = range(12)
+NWORK = 12
 
 _f1, _f2, _f3, _i1, _i2 = (types.float64[::1], types.float64[:, ::1], types.float64[:, :, ::1],
                            types.int64[::1], types.int64[:, ::1])
@@ -242,19 +243,29 @@ def inertia_mass(c, M, Mp, constant, Mb):
 
 
 @njit(cache=True)
-def predict(c, Mb, x, w):
+def predict(c, Mb, x, w, order=0):
     """Predictors (4.3), (4.2) without the new acceleration, into ``w[UT]``, ``w[VT]``; the
-    first iterate ``u_{n+1}`` with ``a_{n+1} = a_n`` into ``w[U1]``; the alpha history
-    ``alpha_m Mb a_n + alpha_f g_n`` into ``w[HIST]`` (for Newmark it stays as it is made:
-    zero)."""
+    first iterate ``u_{n+1} = u~ + beta dt^2 a*`` into ``w[U1]``, with the acceleration ``a*``
+    extrapolated from ``order`` + 1 steps (0: ``a_n``; 1: ``2 a_n - a_{n-1}``; 2: ``3 a_n -
+    3 a_{n-1} + a_{n-2}``, from ``w[AP1]``, ``w[AP2]``, which :func:`finish` keeps); the alpha
+    history ``alpha_m Mb a_n + alpha_f g_n`` into ``w[HIST]`` (for Newmark it stays as it is
+    made: zero).  The first iterate only starts Newton's iteration of a nonlinear step (a
+    linear step solves from it exactly, and takes ``order`` 0)."""
     n = x.shape[1]
     dt, c_up, c_vp, bdt2 = c[DT], c[C_UP], c[C_VP], c[BDT2]
     u, v, a, g = x[0], x[1], x[2], x[3]
     ut, vt, u1, hist = w[UT], w[VT], w[U1], w[HIST]
+    ap1, ap2 = w[AP1], w[AP2]
     for i in range(n):
         ut[i] = u[i] + dt * v[i] + c_up * a[i]
         vt[i] = v[i] + c_vp * a[i]
-        u1[i] = ut[i] + bdt2 * a[i]
+        if order == 2:
+            ag = 3.0 * (a[i] - ap1[i]) + ap2[i]
+        elif order == 1:
+            ag = 2.0 * a[i] - ap1[i]
+        else:
+            ag = a[i]
+        u1[i] = ut[i] + bdt2 * ag
     if is_alpha(c):
         Ma = w[MA]
         matvec(Mb, a, Ma)
@@ -366,10 +377,13 @@ def linear_step(c, Mb, C, K, F, fnl, x, w, LUc, pivc, have, i):
 def finish(c, C, K, F, fnl, x, w):
     """End of the step at the converged ``w[U1]``: its velocity and acceleration
     (:func:`corrector`), the alpha history ``g_{n+1} = C v + K u + f_nl - F``, the new state
-    into ``x``."""
+    into ``x`` (the accelerations of the two steps before into ``w[AP1]``, ``w[AP2]``)."""
     corrector(c, w)
     u1, v1, a1 = w[U1], w[V1], w[A1]
     n = u1.size
+    for i in range(n):
+        w[AP2, i] = w[AP1, i]
+        w[AP1, i] = x[2, i]
     if is_alpha(c):
         Cv, Ku, g = w[CV], w[KU], x[3]
         matvec(C, v1, Cv)
@@ -383,36 +397,44 @@ def finish(c, C, K, F, fnl, x, w):
 
 
 @njit(cache=True)
-def sensitivity(c, LU, piv, Mb, C, Kp, Cp, Kt, Ktp, nonlin, P, PW):
+def sensitivity(c, LU, piv, Mb, C, Kp, Cp, Kt, Ktp, nonlin, P, PW, A):
     """The step Jacobian applied to the blocks ``P`` (3, n, m), in place (``PW`` (6, n, m)
-    work): the linearised step with the converged tangent's LU (``LU, piv``), ``Kp, Cp`` and
-    ``Ktp`` (if ``nonlin``) the matrices at ``t_n`` for the alpha terms; ``Ktp`` then becomes
-    ``Kt``, the tangent at ``t_{n+1}``."""
+    and ``A`` (n, 3 n) work): the linearised step with the converged tangent's LU (``LU,
+    piv``), ``Kp, Cp`` and ``Ktp`` (if ``nonlin``) the matrices at ``t_n`` for the alpha terms;
+    ``Ktp`` then becomes ``Kt``, the tangent at ``t_{n+1}``.
+
+    The right-hand side ``(1-am) Mb da* + (1-af) C dv* [+ am Mb Pa + af ((K + Kt)_n Pu + C_n
+    Pv)]``, with ``da* = -du~ / (beta dt^2)``, ``dv* = dv~ + gamma dt da*`` and ``du~, dv~`` the
+    predictors' (linear in ``Pu, Pv, Pa``), is one product ``[A_u A_v A_a] [Pu; Pv; Pa]``: the
+    three n x n blocks of ``A`` collect each block's coefficients (one product of BLAS instead
+    of up to six)."""
     dt, c_up, c_vp, bdt2, gdt, am, af = c[DT], c[C_UP], c[C_VP], c[BDT2], c[GDT], c[AM], c[AF]
     Pu, Pv, Pa = P[0], P[1], P[2]
-    Dut, Dvt, Das, Wv, dR, Tmp = PW[0], PW[1], PW[2], PW[3], PW[4], PW[5]
+    Dut, Dvt, dR = PW[0], PW[1], PW[4]
     n, m = Pu.shape
+    alpha = is_alpha(c)
+    # da* = -(Pu + dt Pv + c_up Pa) / bdt2;  dv* = Pv + c_vp Pa + gdt da*
+    mu, mv, ma = -(1.0 - am) / bdt2, -(1.0 - am) * dt / bdt2, -(1.0 - am) * c_up / bdt2
+    cu = -(1.0 - af) * gdt / bdt2
+    cv = (1.0 - af) * (1.0 - gdt * dt / bdt2)
+    ca = (1.0 - af) * (c_vp - gdt * c_up / bdt2)
+    for i in range(n):
+        for k in range(n):
+            mb, ck = Mb[i, k], C[i, k]
+            A[i, k] = mu * mb + cu * ck
+            A[i, n + k] = mv * mb + cv * ck
+            A[i, 2 * n + k] = ma * mb + ca * ck
+    if alpha:
+        for i in range(n):
+            for k in range(n):
+                A[i, k] += af * (Kp[i, k] + Ktp[i, k]) if nonlin else af * Kp[i, k]
+                A[i, n + k] += af * Cp[i, k]
+                A[i, 2 * n + k] += am * Mb[i, k]
     for i in range(n):
         for l in range(m):
-            dut = Pu[i, l] + dt * Pv[i, l] + c_up * Pa[i, l]
-            dvt = Pv[i, l] + c_vp * Pa[i, l]
-            das = -dut / bdt2
-            Dut[i, l] = dut
-            Dvt[i, l] = dvt
-            Das[i, l] = das
-            Wv[i, l] = dvt + gdt * das
-            dR[i, l] = 0.0
-    # dR = (1-am) Mb das + (1-af) C (dvt + g dt das)
-    #      [+ am Mb Pa + af ((K + Kt)_n Pu + C_n Pv), the blocks at t_n]
-    gemm_acc(1.0 - am, Mb, Das, dR, Tmp)
-    gemm_acc(1.0 - af, C, Wv, dR, Tmp)
-    alpha = is_alpha(c)
-    if alpha:
-        gemm_acc(am, Mb, Pa, dR, Tmp)
-        gemm_acc(af, Kp, Pu, dR, Tmp)
-        if nonlin:
-            gemm_acc(af, Ktp, Pu, dR, Tmp)
-        gemm_acc(af, Cp, Pv, dR, Tmp)
+            Dut[i, l] = Pu[i, l] + dt * Pv[i, l] + c_up * Pa[i, l]
+            Dvt[i, l] = Pv[i, l] + c_vp * Pa[i, l]
+    np.dot(A, P.reshape((3 * n, m)), dR)
     lu_solve_matrix(LU, piv, dR)
     for i in range(n):
         for l in range(m):
@@ -425,6 +447,54 @@ def sensitivity(c, LU, piv, Mb, C, Kp, Cp, Kt, Ktp, nonlin, P, PW):
         for i in range(n):
             for l in range(n):
                 Ktp[i, l] = Kt[i, l]
+
+
+@njit(cache=True)
+def guess_order(j):
+    """The extrapolation order of the first Newton iterate at step ``j`` (from 1) of a march:
+    quadratic once two steps of this march lie behind (:func:`predict`)."""
+    return min(j - 1, 2)
+
+
+@njit(cache=True)
+def newton(c, Mb, C, K, F, fnl, Kt, w, force, kk, rdata, idata, tol, max_iter, full, LUc, pivc,
+           have, li, St, piv, info, j, t):
+    """Newton's iteration of a nonlinear step of the compiled loop from the iterate ``w[U1]``
+    (:func:`predict`); ``full``: the consistent tangent, else the cached linear one.  The
+    tangent is evaluated with the force at the first iterate (an update nearly always follows)
+    and after that only when an update follows.  Returns ``(status, iterations, fresh)``,
+    ``fresh`` True if ``Kt`` is the tangent at the converged iterate; a failure fills ``info``
+    (step ``j``, time ``t``)."""
+    k_it = 0
+    du_norm = math.inf
+    want = full
+    while True:
+        force(w[U1], kk, rdata, idata, fnl, Kt, want)
+        rn, ref = residual(c, Mb, C, K, F, fnl, w, True)
+        if not math.isfinite(rn):
+            info[0], info[1], info[2], info[3] = j, t, rn, k_it
+            return NOT_FINITE, k_it, want
+        if converged(rn, ref, du_norm, w, tol):
+            return OK, k_it, want
+        if k_it >= max_iter:
+            info[0], info[1], info[2], info[3], info[6] = j, t, rn, k_it, ref
+            return NO_CONVERGENCE, k_it, want
+        if full:
+            if not want:
+                force(w[U1], kk, rdata, idata, fnl, Kt, True)
+            ok, dmin, dmax = tangent_lu(c, Mb, C, K, Kt, True, St, piv)
+            if not ok:
+                info[0], info[1], info[4], info[5] = j, t, dmin, dmax
+                return SINGULAR, k_it, True
+            du_norm = correct(St, piv, w)
+        else:
+            ok, dmin, dmax = linear_lu(c, Mb, C, K, LUc, pivc, have, li)
+            if not ok:
+                info[0], info[1], info[4], info[5] = j, t, dmin, dmax
+                return SINGULAR, k_it, want
+            du_norm = correct(LUc[li], pivc[li], w)
+        k_it += 1
+        want = False
 
 
 # --- the compiled loop ----------------------------------------------------------------------------
@@ -455,6 +525,7 @@ def march(Ms, Cs, Ks, Fs, k0, c, x, nsteps, t0, force, rdata, idata, nonlin, Ktp
     m = P.shape[2]
     sens = m > 0
     PW = np.empty((6, n, m))
+    A = np.empty((n, 3 * n))
     store = X.shape[1] == nsteps + 1
     u1 = w[U1]
     for j in range(1, nsteps + 1):
@@ -464,9 +535,9 @@ def march(Ms, Cs, Ks, Fs, k0, c, x, nsteps, t0, force, rdata, idata, nonlin, Ktp
         K = Ks[kk % SK]
         F = Fs[kk % SF]
         Mb = inertia_mass(c, Ms[kk % SM], Ms[(kk - 1) % SM], SM == 1, Mbw)
-        predict(c, Mb, x, w)
         li = kk % SL
         if not nonlin:
+            predict(c, Mb, x, w, 0)
             ok, dmin, dmax = linear_step(c, Mb, C, K, F, fnl, x, w, LUc, pivc, have, li)
             if not ok:
                 info[0], info[1], info[4], info[5] = j, t, dmin, dmax
@@ -474,37 +545,23 @@ def march(Ms, Cs, Ks, Fs, k0, c, x, nsteps, t0, force, rdata, idata, nonlin, Ktp
             LU = LUc[li]
             LP = pivc[li]
         else:
-            k_it = 0
-            du_norm = math.inf
+            # Newton from the acceleration extrapolated over the steps before, and from a_n
+            # if that fails (a start that excites the stiff modes makes the history rough)
+            order = guess_order(j)
             while True:
-                force(u1, kk, rdata, idata, fnl, Kt, False)
-                rn, ref = residual(c, Mb, C, K, F, fnl, w, True)
-                if not math.isfinite(rn):
-                    info[0], info[1], info[2], info[3] = j, t, rn, k_it
-                    return NOT_FINITE
-                if converged(rn, ref, du_norm, w, tol):
+                predict(c, Mb, x, w, order)
+                status, k_it, fresh = newton(c, Mb, C, K, F, fnl, Kt, w, force, kk, rdata, idata,
+                                             tol, max_iter, full, LUc, pivc, have, li, St, piv,
+                                             info, j, t)
+                if status == OK or status == SINGULAR or order == 0:
                     break
-                if k_it >= max_iter:
-                    info[0], info[1], info[2], info[3], info[6] = j, t, rn, k_it, ref
-                    return NO_CONVERGENCE
-                if full:
-                    # the tangent only now, when an update follows (not at the converged point)
-                    force(u1, kk, rdata, idata, fnl, Kt, True)
-                    ok, dmin, dmax = tangent_lu(c, Mb, C, K, Kt, True, St, piv)
-                    if not ok:
-                        info[0], info[1], info[4], info[5] = j, t, dmin, dmax
-                        return SINGULAR
-                    du_norm = correct(St, piv, w)
-                else:
-                    ok, dmin, dmax = linear_lu(c, Mb, C, K, LUc, pivc, have, li)
-                    if not ok:
-                        info[0], info[1], info[4], info[5] = j, t, dmin, dmax
-                        return SINGULAR
-                    du_norm = correct(LUc[li], pivc[li], w)
-                k_it += 1
+                order = 0
+            if status != OK:
+                return status
             iters[j - 1] = k_it
             if sens:  # the consistent tangent at the converged u_{n+1}
-                force(u1, kk, rdata, idata, fnl, Kt, True)
+                if not fresh:
+                    force(u1, kk, rdata, idata, fnl, Kt, True)
                 ok, dmin, dmax = tangent_lu(c, Mb, C, K, Kt, True, St, piv)
                 if not ok:
                     info[0], info[1], info[4], info[5] = j, t, dmin, dmax
@@ -513,7 +570,7 @@ def march(Ms, Cs, Ks, Fs, k0, c, x, nsteps, t0, force, rdata, idata, nonlin, Ktp
             LP = piv
         if sens:
             sensitivity(c, LU, LP, Mb, C, Ks[(kk - 1) % SK], Cs[(kk - 1) % SC], Kt, Ktp, nonlin,
-                        P, PW)
+                        P, PW, A)
         finish(c, C, K, F, fnl, x, w)
         if store:
             for i in range(n):

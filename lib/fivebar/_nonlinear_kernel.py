@@ -38,6 +38,8 @@ def element_loop(u, Ge, ae, wE, idx, measure, f, Kt, tangent):
     b = np.empty(8)
     cb = np.empty(8)
     D = np.empty(8)
+    ds = np.empty(8)
+    cp = np.empty(8)
     W = np.empty(npts)
     Kl = np.empty((8, 8))
     for i in range(n):
@@ -55,9 +57,10 @@ def element_loop(u, Ge, ae, wE, idx, measure, f, Kt, tangent):
             fl[i] = 0.0
             b[i] = 0.0
             cb[i] = 0.0
+            ds[i] = 0.0
         if tangent:
             for i in range(8):
-                for j in range(8):
+                for j in range(i, 8):
                     Kl[i, j] = 0.0
         EAL = 0.0
         phi = 0.0
@@ -79,6 +82,7 @@ def element_loop(u, Ge, ae, wE, idx, measure, f, Kt, tangent):
         for i in range(8):
             b[i] /= EAL
             cb[i] /= EAL
+        Nsum = 0.0
         for p in range(npts):
             w = wE[e, p]
             if measure == 0:
@@ -99,14 +103,25 @@ def element_loop(u, Ge, ae, wE, idx, measure, f, Kt, tangent):
             for i in range(8):
                 fl[i] += we * ae[e, i] + N * D[i]
             if tangent:
+                # w (D (a + D)^T + a D^T) + N h, h = g g^T (literal, uniform) or
+                # g g^T + 2 b b^T - g b^T - b g^T = (g - b)(g - b)^T + b b^T (corotated): the
+                # terms in a^T and b b^T summed over the points first, the rest as two
+                # symmetric rank-one updates (upper triangle; mirrored when scattered)
+                Nsum += N
                 for i in range(8):
-                    gi = Ge[e, p, i]
-                    for j in range(8):
-                        gj = Ge[e, p, j]
-                        h = gi * gj
-                        if measure == 1:
-                            h += 2.0 * b[i] * b[j] - gi * b[j] - b[i] * gj
-                        Kl[i, j] += w * (D[i] * (ae[e, j] + D[j]) + ae[e, i] * D[j]) + N * h
+                    ds[i] += w * D[i]
+                    cp[i] = Ge[e, p, i] - b[i] if measure == 1 else Ge[e, p, i]
+                for i in range(8):
+                    wd = w * D[i]
+                    nc = N * cp[i]
+                    for j in range(i, 8):
+                        Kl[i, j] += wd * D[j] + nc * cp[j]
+        if tangent:
+            for i in range(8):
+                for j in range(i, 8):
+                    Kl[i, j] += ds[i] * ae[e, j] + ae[e, i] * ds[j]
+                    if measure == 1:
+                        Kl[i, j] += Nsum * b[i] * b[j]
         for i in range(8):
             d = idx[e, i]
             if d < n:
@@ -119,7 +134,7 @@ def element_loop(u, Ge, ae, wE, idx, measure, f, Kt, tangent):
                 for j in range(8):
                     dj = idx[e, j]
                     if dj < n:
-                        Kt[di, dj] += Kl[i, j]
+                        Kt[di, dj] += Kl[i, j] if j >= i else Kl[j, i]
 
 
 @njit(cache=True)
