@@ -26,6 +26,7 @@ from scipy.optimize import brentq, root
 
 from fivebar.continuation import ContinuationError, continuation, settle, switch_period_doubling
 from fivebar.errors import FivebarError
+from fivebar.newmark import NewtonConvergenceError
 from fivebar.modal_equations import ModalSystem
 from fivebar.response_curves import backbone
 from fivebar.systems import System
@@ -205,6 +206,33 @@ def test_a_failing_map_stops_the_continuation_with_the_branch_so_far():
         continuation(failing, np.zeros(2), 0.1, 0.5, ds=0.05, ds_max=0.1, ds_min=1e-4)
     br = info.value.branch
     assert len(br.points) >= 3 and 0.29 < br.p[-1] <= 0.3 and "ds_min" in br.stop
+
+
+def test_a_point_whose_jacobian_fails_is_a_rejected_step():
+    """A corrected point at which the monodromy cannot be made (here: the map refuses the
+    Jacobian above p = 0.3, while its plain periods go on) is not kept: the step is rejected
+    and halved, and the continuation ends with the branch so far (below 0.3), its stop saying
+    why, instead of the map's error escaping (as the linkage's did where a period at p + dp
+    failed to integrate)."""
+    def family(c):
+        return PeriodicProblem(System(np.eye(1), [[c]], np.eye(1), force=lambda t: [math.cos(0.7 * t)]),
+                               2 * math.pi / 0.7, 50)
+    f = newmark_map(family)
+
+    def failing(x, p, jacobian):
+        if jacobian and p > 0.3:
+            raise NewtonConvergenceError("no Jacobian above 0.3", 0.0, math.nan, 0)
+        return f(x, p, jacobian)
+    with pytest.raises(ContinuationError, match="ds_min") as info:
+        continuation(failing, np.zeros(2), 0.1, 0.5, ds=0.05, ds_max=0.1, ds_min=1e-4)
+    br = info.value.branch
+    assert len(br.points) >= 3 and 0.29 < br.p[-1] <= 0.3
+    by = br.stats["by purpose"]
+    # the failed Jacobians are the rejected steps' work; every accepted point has its own
+    assert by["multipliers"]["monodromies"] == len(br.points) - 1
+    assert by["rejected"]["monodromies"] >= 1
+    for k in ("periods", "monodromies", "newton"):
+        assert sum(c[k] for c in by.values()) == br.stats[k]
 
 
 def test_a_large_maximum_step_does_not_skip_the_folds():

@@ -24,8 +24,9 @@ present iterate when an iteration reduces the residual by less than 5 (twice at 
 its update, halved three times, still fails to integrate a period or multiplies the residual
 by more than 10 (Newton's residual may grow for an iteration on its way; a tenfold growth is
 taken for divergence); a step that fails with the present Jacobian too is rejected.  Step-size control: a step whose corrector needs
-more than ``max_newton`` iterations (or fails), or whose corrector ends farther than half
-the step from the predictor, is halved (down to ``ds_min``); after a converged step the next
+more than ``max_newton`` iterations (or fails), whose corrector ends farther than half
+the step from the predictor, or at whose corrected point the Jacobian cannot be made (a
+period from it, or at ``p + dp``, fails to integrate), is halved (down to ``ds_min``); after a converged step the next
 is scaled by :math:`\sqrt{0.1\,\Delta s/\delta}`, :math:`\delta` the distance of the
 corrected point from the predictor (about :math:`\kappa\Delta s^2/2` on a curve of curvature
 :math:`\kappa`: the tangent then turns by about 0.2 rad per step), the factor kept within
@@ -331,9 +332,9 @@ class _Problem:
             self.stats[k] += v
             c[k] += v
 
-    def reject(self, before: dict) -> None:
-        """Move what the corrector spent since ``before`` (a copy of its count) to ``rejected``."""
-        c, r = self.stats["by purpose"]["corrector"], self.stats["by purpose"]["rejected"]
+    def move(self, before: dict, source: str, to: str) -> None:
+        """Move what ``source`` spent since ``before`` (a copy of its count) to ``to``."""
+        c, r = self.stats["by purpose"][source], self.stats["by purpose"][to]
         for k in r:
             r[k] += c[k] - before[k]
             c[k] = before[k]
@@ -346,8 +347,8 @@ class _Problem:
     def jac(self, y):
         """Scaled [Phi - I, G_p] at y, the scaled G there, and Phi (unscaled)."""
         x, p = self.D * y[:-1], self.ps * y[-1]
+        self.count(1, 1)  # (counted before: a period that fails is work done too)
         xT, Phi = monodromy(self.f, x, p, self.D)
-        self.count(1, 1)
         g = (xT - x) / self.D
         h = self.dp * max(1.0, abs(y[-1]))
         self.count(1)
@@ -518,10 +519,16 @@ def continuation(
             if res is not None:
                 dist = float(np.linalg.norm(res[0] - yp))
                 if target is not None or dist <= 0.5 * h:
-                    break
-                res = None  # the corrector went far from the predictor: the curve turns too fast
+                    jac_before = dict(prob.stats["by purpose"]["corrector"])
+                    try:  # the Jacobian at the new point: its multipliers and tangent
+                        J1, g1, Phi1 = prob.jac(res[0])
+                        prob.move(jac_before, "corrector", "multipliers")
+                        break
+                    except FivebarError:  # a period from it (or at p + dp) fails: rejected too
+                        pass
+                res = None  # the corrector went far from the predictor (the curve turns too fast)
             prob.stats["rejected"] += 1
-            prob.reject(before)
+            prob.move(before, "corrector", "rejected")
             h *= 0.5
             if h < ds_min:
                 err = ContinuationError(
@@ -531,8 +538,6 @@ def continuation(
                 err.branch = Branch(pts, bifs, periods, D, float(p_scale), prob.stats, str(err), discarded)
                 raise err
         y1, it = res
-        prob.purpose = "multipliers"
-        J1, g1, Phi1 = prob.jac(y1)
         t1 = _tangent(J1, tk)
         mu1 = floquet_multipliers(Phi1)
         step = float(tk @ (y1 - yk))
@@ -678,7 +683,10 @@ def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, 
         if res is None:
             break
         y, _ = res
-        J, g, Phi = prob.jac(y)
+        try:
+            J, g, Phi = prob.jac(y)
+        except FivebarError:  # a period from the trial point fails to integrate
+            break
         t = _tangent(J, tk)
         mu = floquet_multipliers(Phi)
         f = _tests(mu, t)[kind]
