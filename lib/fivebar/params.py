@@ -340,7 +340,9 @@ class Params:
 
         Keys are dotted TOML keys (``**{"motor1.m0": 2.0}``) or bare names that are unique
         (``crank_speed_rpm=120``, ``L1=0.25``); ``linkage=`` takes a whole description (the
-        ``[linkage]`` table of a file, as a dict).
+        ``[linkage]`` table of a file, as a dict).  A change of entries that the set only keeps in
+        a field of their name (the crank speed, the damping ratio, the scheme, ...) checks those
+        entries and keeps the rest of the set; any other change validates the whole set again.
 
         >>> p = load_params().replace(crank_speed_rpm=120)
         """
