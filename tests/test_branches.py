@@ -112,3 +112,46 @@ def test_steady_state_explain_names_what_a_march_from_an_unstable_orbit_does():
         steady_state(p, method="march", explain=True)
     with pytest.raises(FivebarError, match="explain"):
         steady_state(p, explain="yes")
+
+
+def test_period_map_dynamics_at_a_new_speed_equal_a_fresh_build():
+    """The period map's dynamics at a new speed are made of the speed-free parts another speed
+    stored (the samples, the model, the nonlinear force) and are not stored themselves: array
+    for array they must equal the dynamics built afresh from the parameter set at that speed in
+    a clean store, and so must one period and its monodromy matrix; a bad speed is refused by
+    name."""
+    from fivebar.cache import STORE
+
+    p = fivebar.load_params().replace(bending_depth=0.002)
+    s = Setup(p, crank_speed_rpm=40, steps_per_period=200, motors=False)  # nonlinear
+    fivebar.clear_cache()
+    f = linkage_period_map(s)
+    x = f.state(steady_state(s))
+    f(x, 40.0, True)
+    _, d = f.dynamics(61.0)
+    y, Phi = f(x, 61.0, True)
+    y_plain, _ = f(x, 61.0, False)
+    assert len(STORE.keys("setup.dynamics")) == 1  # the steady state's at 40 r/min, not the map's
+    fivebar.clear_cache()
+    s97 = Setup(p.replace(crank_speed_rpm=61.0), steps_per_period=200, motors=False)
+    fresh = s97.dynamics()
+    g = linkage_period_map(s97)
+    assert g.dynamics(61.0)[1] is fresh  # the stored one, when there is one
+    assert d.params == fresh.params and (d.period, d.dt, d.n) == (fresh.period, fresh.dt, fresh.n)
+    assert np.array_equal(d.t, fresh.t) and np.array_equal(d.keep, fresh.keep)
+    direct = dict(zip("MCKF", fresh._sample(fresh.t)))  # sampled at the speed, no cache
+    for name in "MCKF":  # (sampled at other crank angles by round-off: C, through the modes, to 1e-10)
+        X, Y = getattr(d.step_data, name), getattr(fresh.step_data, name)
+        assert X.shape == Y.shape and np.abs(X - Y).max() <= 1e-9 * np.abs(Y).max(), name
+        assert np.abs(X - direct[name]).max() <= 1e-9 * np.abs(Y).max(), name
+    assert np.array_equal(d.step_data.kernel_arrays()[3], d.step_data.F)
+    (_, r1, i1), (_, r2, i2) = d.compiled_nonlinear(d.step_data), fresh.compiled_nonlinear(fresh.step_data)
+    assert np.array_equal(i1, i2) and np.allclose(r1, r2, rtol=1e-10, atol=1e-13 * np.abs(r2).max())
+    y2, Phi2 = g(x, 61.0, True)
+    assert np.abs(y - y2).max() <= 1e-8 * np.abs(y2).max() and np.abs(y_plain - y2).max() <= 1e-8 * np.abs(y2).max()
+    assert np.abs(Phi - Phi2).max() <= 1e-8 * np.abs(Phi2).max()
+    for bad in (-5.0, 0.0):
+        with pytest.raises(FivebarError, match=f"crank_speed_rpm = {bad!r} is not allowed"):
+            f.dynamics(bad)
+    with pytest.raises(FivebarError, match="keep = 'no'"):
+        s.dynamics(keep="no")

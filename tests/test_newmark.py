@@ -14,6 +14,7 @@ from scipy.integrate import solve_ivp
 from fivebar import load_params
 from fivebar.schemes import HHT, GeneralizedAlpha, Newmark, UnstableParametersError, UnstableParametersWarning, amplification_matrix
 from fivebar.systems import PeriodicStepData, System, consistent_acceleration
+from fivebar.errors import InputError
 from fivebar.newmark import NewtonConvergenceError, integrate
 
 SCHEMES = [Newmark(), HHT(-0.1), HHT(-1 / 3), GeneralizedAlpha(0.8), GeneralizedAlpha(0.0)]
@@ -516,3 +517,63 @@ def test_floquet_multipliers_of_damped_mathieu(delta, eps):
     lam = np.linalg.eigvals(r.monodromy)
     lam = lam[np.argsort(-abs(lam))]
     assert _match(lam[:4], ref) < 1e-3 and max(abs(lam[4:])) < 1e-3
+
+
+def _phase_system(Om):
+    """A periodic system whose matrices are functions of the phase Omega t and whose force
+    scales with Omega^2 (as the linkage's at a crank speed), with a cubic spring."""
+    rng = np.random.default_rng(8)
+    n = 4
+    M0, K0 = _spd(rng, n), _spd(rng, n, 20.0)
+    M1, K1 = 0.2 * _spd(rng, n, 1.0, 0.0), _spd(rng, n, 3.0, 0.0)
+    b = np.arange(1.0, n + 1)
+    return System(lambda t: M0 + np.sin(Om * t) * M1, lambda t: 0.02 * (K0 + np.cos(Om * t) * K1),
+                  lambda t: K0 + np.cos(Om * t) * K1, force=lambda t: Om**2 * np.sin(Om * t) * b,
+                  nonlinear=lambda u: (50.0 * u**3, np.diag(150.0 * u**2))), 2 * np.pi / Om
+
+
+def test_step_data_with_force_is_the_step_data_of_the_rescaled_system():
+    """``with_force`` keeps M, C, K (shared) and takes the force and period of another time
+    scale: it must march as the step data sampled afresh from the system at that scale, with
+    LU caches of its own; a bad force or period is refused by name."""
+    S = 32
+    sys1, T1 = _phase_system(1.0)
+    sys2, T2 = _phase_system(2.5)
+    sd1 = PeriodicStepData.from_system(sys1, 0.0, T1, S)
+    fresh = PeriodicStepData.from_system(sys2, 0.0, T2, S)
+    u0, v0 = 0.05 * np.ones(4), np.zeros(4)
+    integrate(sys1, u0, v0, 0.0, T1 / S, S, step_data=sd1, newton="modified")  # sd1's arrays and LU used first
+    sd2 = sd1.with_force(sd1.F * 2.5**2, T2)
+    assert np.shares_memory(sd2.M, sd1.M) and np.shares_memory(sd2.K, sd1.K)
+    assert (sd2.period, sd2.dt, sd2.steps, sd2.n) == (T2, T2 / S, S, 4)
+    for X, Y in ((sd2.M, fresh.M), (sd2.C, fresh.C), (sd2.K, fresh.K), (sd2.F, fresh.F)):
+        assert np.allclose(X, Y, rtol=1e-12, atol=1e-12 * np.abs(Y).max())
+    for newton in ("modified", "full"):
+        a = integrate(sys2, u0, v0, 0.0, T2 / S, 2 * S, step_data=sd2, newton=newton, sensitivity=True)
+        b = integrate(sys2, u0, v0, 0.0, T2 / S, 2 * S, step_data=fresh, newton=newton, sensitivity=True)
+        assert np.max(np.abs(a.u - b.u)) < 1e-9 * np.max(np.abs(b.u))
+        assert np.max(np.abs(a.monodromy - b.monodromy)) < 1e-9 * np.max(np.abs(b.monodromy))
+    assert len(sd2._lu_factors()) == 1 and len(sd1._lu_factors()) == 1  # one cache each (dt differs)
+    assert next(iter(sd2._lu_factors().values()))[0] is not next(iter(sd1._lu_factors().values()))[0]
+    F = np.array(sd1.F)
+    F[3, 1] = np.nan
+    with pytest.raises(InputError, match=r"(?s)F = .* every entry must be finite"):
+        sd1.with_force(F, T2)
+    with pytest.raises(InputError, match=r"F has shape \(32, 3\)"):
+        sd1.with_force(np.zeros((S, 3)), T2)
+    with pytest.raises(InputError, match="period = -1.0"):
+        sd1.with_force(sd1.F, -1.0)
+
+
+def test_full_newton_on_a_nonlinear_system_makes_no_linear_tangent_cache():
+    """Full Newton factorises the consistent tangent and never the linear one: the step data
+    gets no (S, n, n) LU cache from it; modified Newton gets one (filled at every step point)."""
+    S = 24
+    sysm, T = _phase_system(1.0)
+    u0, v0 = 0.05 * np.ones(4), np.zeros(4)
+    sd = PeriodicStepData.from_system(sysm, 0.0, T, S)
+    full = integrate(sysm, u0, v0, 0.0, T / S, S, step_data=sd, newton="full")
+    assert sd._lu_factors() == {}
+    modified = integrate(sysm, u0, v0, 0.0, T / S, S, step_data=sd, newton="modified")
+    assert len(sd._lu_factors()) == 1 and all(next(iter(sd._lu_factors().values()))[2])
+    assert np.max(np.abs(full.u - modified.u)) < 1e-8 * np.max(np.abs(full.u))

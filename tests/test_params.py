@@ -96,3 +96,40 @@ def test_unknown_and_ambiguous_keys(tmp_path: Path):
     broken.write_text("[geometry\nL1 = ")
     with pytest.raises(ParameterError, match="not valid TOML"):
         load_params(broken)
+
+
+def _other_values(rule, value):
+    """A valid value other than ``value`` and an invalid one, for an entry's rule."""
+    if isinstance(rule, tuple):  # a choice
+        return next(c for c in rule[1] if c != value), "no such choice"
+    return {"pos": (1.5 * value, -1.0), "nonneg": (value + 1.0, -1.0), "real": (value + 0.25, math.inf),
+            "posint": (value + 1, 0), "frac": ((value + 0.5) / 2, 1.0), "unit": (value / 2, 1.5),
+            "flag": (1 - value, 2), "slip": (value / 2, 1.0)}[rule]
+
+
+def test_replace_of_entries_kept_in_their_field_alone_equals_loading_them():
+    """``replace`` of an entry the set keeps only in a field of its own (the crank speed, ...)
+    checks that entry and keeps the rest: the set must equal the file loaded with the entry
+    overridden (validated whole), field for field and entry for entry, and a bad value must be
+    refused as loading refuses it, by name.  ``bending_depth`` is checked against the section
+    even so."""
+    from fivebar.params import _FIELD_ONLY, _SCHEMA
+
+    assert "assumptions.crank_speed_rpm" in _FIELD_ONLY and "assumptions.bending_depth" not in _FIELD_ONLY
+    p = load_params()
+    for key in sorted(_FIELD_ONLY):
+        good, bad = _other_values(_SCHEMA[key][0], p.values[key])
+        for bare in (key, key.split(".", 1)[1]):
+            q, ref = p.replace(**{bare: good}), load_params(overrides={key: good})
+            assert q == ref and hash(q) == hash(ref) and q.values == ref.values, key
+            assert type(q.values[key]) is type(ref.values[key]) and q.references == ref.references, key
+            assert q.linkage == ref.linkage and q.motors == ref.motors, key
+            assert q.meta == p.meta  # replace keeps the provenance (loading records the override)
+            with pytest.raises(ParameterError) as got:
+                p.replace(**{bare: bad})
+            with pytest.raises(ParameterError) as want:
+                load_params(overrides={key: bad})
+            assert str(got.value) == str(want.value) and key in str(got.value), key
+    with pytest.raises(ParameterError, match="assumptions.bending_depth = 0.003 is not allowed: it must be one side"):
+        p.replace(bending_depth=0.003)
+    assert p.replace(crank_speed_rpm=120, L1=0.25).L1 == 0.25  # with another entry: the whole set rebuilt

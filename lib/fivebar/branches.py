@@ -95,13 +95,14 @@ class LinkagePeriodMap:
         self._dyn: dict[float, Any] = {}
 
     def dynamics(self, p: float):
-        """The set-up's dynamics at ``p`` (the last four kept)."""
+        """The set-up's dynamics at ``p`` (the last four kept here, not in the library's store:
+        the store's if it has them, else built)."""
         p = float(p)
         if p not in self._dyn:
             if len(self._dyn) >= 4:
                 self._dyn.pop(next(iter(self._dyn)))
             s = _setup_at(self.setup, self.parameter, p)
-            self._dyn[p] = (s, s.dynamics())
+            self._dyn[p] = (s, s.dynamics(keep=False))
         return self._dyn[p]
 
     def __call__(self, x, p=None, jacobian=False):

@@ -231,11 +231,11 @@ class Store:
     def get(self, key: Hashable, make: Callable[[], Any]) -> Any:
         """The value stored under ``key``, or ``make()`` stored under it (an unhashable key:
         ``make()``, not stored)."""
-        if not _hashable(key):
-            return make()
         hit = self._find(key, _MISSING, "touch")
         if hit is not _MISSING:
             return hit
+        if not _hashable(key):
+            return make()
         value = make()
         with self._lock:
             hit = self._data.get(key)
@@ -272,13 +272,15 @@ class Store:
             return [k for k in self._data if isinstance(k, tuple) and k and k[0] == kind]
 
     def _find(self, key, default, how: str):
-        """The value of ``key`` (or ``default``), and ``how``: "touch" makes it the newest,
-        "pop" removes it, "look" leaves it."""
-        if not _hashable(key):
-            return default
+        """The value of ``key`` (or ``default``, also for a key that cannot be hashed), and
+        ``how``: "touch" makes it the newest, "pop" removes it, "look" leaves it.  (The key is
+        hashed once: a parameter set is slow to hash.)"""
         with self._lock:
             self._bury()
-            hit = self._data.get(key)
+            try:
+                hit = self._data.get(key)
+            except TypeError:  # a key that cannot be hashed: never stored
+                return default
             if hit is None:
                 return default
             if how == "pop":

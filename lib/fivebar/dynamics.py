@@ -61,7 +61,8 @@ from .setup import Setup, as_setup
 __all__ = ["LinkageDynamics", "modal_damping"]
 
 # Kept in the library's one store (:mod:`fivebar.cache`), under these kinds of key:
-#: (params without the speed, S, mesh, motors) -> (M, C, K, F / Omega^2) at the S step times
+#: (params without the speed, S, mesh, motors) -> the step data at 1 rad/s: M, C, K and
+#: F / Omega^2 at the S step times (a PeriodicStepData of period 2 pi s)
 _SAMPLES = "dynamics.samples"
 #: ("geometry" or "elements", sample key) -> the nonlinear force's configuration at the S steps
 _STEP_TIMES = "dynamics.step_times"
@@ -75,16 +76,16 @@ def _model(params: Params, elements_per_link, motors: bool) -> Model:
                      lambda: build_model(params, elements_per_link=elements_per_link, motors=motors))
 
 
+def _nonlinear_force(params: Params, elements_per_link, motors: bool, keep: NDArray) -> NonlinearForce:
+    """The model's :class:`~fivebar.nonlinear.NonlinearForce` on the DOFs ``keep`` (those of
+    the linkage subsystem, which the model fixes), built once per model like it."""
+    return STORE.get(("dynamics.nonlinear_force", params, elements_per_link, motors),
+                     lambda: NonlinearForce(_model(params, elements_per_link, motors), keep=keep))
+
+
 def _speed_free(params: Params) -> Params:
     """The parameter set at 1 r/min (the sample cache's key), made once per parameter set."""
     return STORE.get(("dynamics.speed_free", params), lambda: params.replace(crank_speed_rpm=1.0))
-
-
-def _at_speed(params: Params, rpm: float) -> Params:
-    """``params.replace(crank_speed_rpm=rpm)``, made once per parameter set and speed (the S
-    compared by ``steady_state(..., tol=...)`` share it; validating a parameter set takes a
-    millisecond)."""
-    return STORE.get(("dynamics.at_speed", params, float(rpm)), lambda: params.replace(crank_speed_rpm=rpm))
 
 
 def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
@@ -127,35 +128,32 @@ class LinkageDynamics:
     def __init__(self, setup: Setup | Params, P=None) -> None:
         setup = as_setup(setup)
         setup._check_memory()
-        params, crank_speed_rpm = setup.params, setup.crank_speed_rpm
         elements_per_link, motors, nonlinear = setup.elements_per_link, setup.motors, setup.nonlinear
-        speed_free = None
-        if crank_speed_rpm is not None:
-            speed_free = _speed_free(params)  # the same for every speed: found in the cache
-            params = _at_speed(params, crank_speed_rpm)
+        speed_free = _speed_free(setup.params)  # the same for every speed: found in the cache
+        params = setup.run_params  # (a new speed: the speed alone checked, Params.replace)
         self.setup = setup
         self.params = params
         self.steps_per_period = S = setup.steps_per_period
         self.period = params.period
         self.dt = self.period / S
         # the model (element matrices, mesh) does not depend on the speed: one per geometry
-        self.model: Model = _model(params if speed_free is None else speed_free, elements_per_link, bool(motors))
+        self.model: Model = _model(speed_free, elements_per_link, bool(motors))
         rotor = {d for i in self.model.motor_dofs for d in self.model.motor_dofs[i][:2]}
         #: indices (into the model's DOFs) of the linkage subsystem
         self.keep = np.array([i for i in range(self.model.n) if i not in rotor])
         self.n = len(self.keep)
         self._P = P
-        self._nl = NonlinearForce(self.model, keep=self.keep) if nonlinear else None
+        self._nl = (_nonlinear_force(speed_free, elements_per_link, bool(motors), self.keep)
+                    if nonlinear else None)
         t = np.arange(self.steps_per_period) * self.dt
         self.t = t
         self._key = None  # the sample cache's key (None: not cached)
         with _blas_threads(1):  # many small dense problems: threaded BLAS only adds overhead
-            M, C, K, F = self._sampled(t, elements_per_link, motors, speed_free)
+            self.step_data = self._step_data(t, elements_per_link, motors, speed_free)
         # the nonlinear force's view of the configuration at the S step times (the element
         # rotations), so that f_nl(u, t) at a step time does no kinematics: made when first
         # needed, and like the samples the same at every speed
         self._geometry = self._elements = None
-        self.step_data = PeriodicStepData(M, C, K, F, t0=0.0, period=self.period)
 
     # --- sampling ------------------------------------------------------------------------------
     def crank_angles(self, t: ArrayLike) -> tuple[NDArray, ...]:
@@ -163,25 +161,26 @@ class LinkageDynamics:
         the five-bar)."""
         return crank_laws(self.params, t)[0::3]
 
-    def _sampled(self, t: NDArray, elements_per_link, motors,
-                 speed_free: Params | None = None) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    def _step_data(self, t: NDArray, elements_per_link, motors, speed_free: Params) -> PeriodicStepData:
         """M, C, K, F at the S step times, from the speed-independent cache when it serves.
 
         At constant crank speed the step times k T / S meet the same crank angles at every
         speed, so M, K, the frozen modes and C do not depend on the speed, and F = -M u_r''
         scales with its square.  The cache key is the parameter set with the speed taken out,
-        S, the mesh and the motors (no external force P); the arrays are read-only, and this
-        object's step data holds the stored arrays themselves (F scaled to the speed), not a copy.
+        S, the mesh and the motors (no external force P); it holds the step data at 1 rad/s
+        (read-only arrays), and this object's step data is that one at the speed
+        (:meth:`~fivebar.systems.PeriodicStepData.with_force`: the stored M, C, K themselves,
+        checked once, and F scaled to the speed).
         """
         if self._P is not None or self.params.damping_model == "stiffness":
-            return self._sample(t)  # (stiffness damping: K holds a term linear in the speed)
+            # (stiffness damping: K holds a term linear in the speed)
+            return PeriodicStepData(*self._sample(t), t0=0.0, period=self.period)
         p = self.params
-        key = (_SAMPLES, _speed_free(p) if speed_free is None else speed_free, self.steps_per_period,
-               elements_per_link, bool(motors))
+        key = (_SAMPLES, speed_free, self.steps_per_period, elements_per_link, bool(motors))
         try:
             hash(key)
         except TypeError:  # an unhashable parameter set: no cache
-            return self._sample(t)
+            return PeriodicStepData(*self._sample(t), t0=0.0, period=self.period)
         self._key = key
         W2 = p.crank_speed_rad_s ** 2
 
@@ -192,9 +191,9 @@ class LinkageDynamics:
                 for X in (M, C, K):
                     X.flags.writeable = False
                 hit = (M, C, K, F / W2)
-            return hit
-        M, C, K, Fn = STORE.get(key, make)
-        return M, C, K, Fn * W2
+            return PeriodicStepData(*hit, t0=0.0, period=2.0 * np.pi)
+        unit = STORE.get(key, make)
+        return unit.with_force(unit.F * W2, self.period)
 
     def _at_step_times(self, what: str, make):
         """``make()``, of a quantity at the S step times that does not depend on the speed,
@@ -211,14 +210,14 @@ class LinkageDynamics:
         S = self.steps_per_period
         fine = STORE.lookup(key[:2] + (2 * S,) + key[3:], touch=False)
         if fine is not None:
-            out = tuple(np.ascontiguousarray(X[::2]) for X in fine)
+            out = tuple(np.ascontiguousarray(X[::2]) for X in (fine.M, fine.C, fine.K, fine.F))
         else:
             coarse = STORE.lookup(key[:2] + (S // 2,) + key[3:], touch=False) if S % 2 == 0 else None
             if coarse is None:
                 return None
             M, C, K, F = self._sample(t[1::2])
             out = []
-            for old, new in zip(coarse, (M, C, K, F / W2)):
+            for old, new in zip((coarse.M, coarse.C, coarse.K, coarse.F), (M, C, K, F / W2)):
                 X = np.empty((S,) + old.shape[1:])
                 X[0::2], X[1::2] = old, new
                 out.append(X)

@@ -467,11 +467,14 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
     else:
         P = np.zeros((3, n, 0))
 
-    # the LU cache of the linear tangent: per step point of the step data, else one slot
+    # the LU cache of the linear tangent: per step point of the step data, else one slot (and
+    # one unused slot for full Newton on a nonlinear system, which factorises the consistent
+    # tangent and never the linear one)
     M_const = time_invariant or (sd is not None and sd.M_constant)
     key = (float(c[kern.CM]), float(c[kern.CC]), float(c[kern.CK]),
            0.0 if M_const else float(scheme.alpha_f))
-    cache = sd.lu_cache(key) if sd is not None else _new_lu_cache(1, n)
+    uses_cache = linear or newton == "modified"
+    cache = sd.lu_cache(key) if sd is not None and uses_cache else _new_lu_cache(1, n)
     tol = np.array([rtol, xtol, atol])
 
     compiled_nl = None

@@ -14,7 +14,7 @@ import re
 import tomllib
 from importlib import resources
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -340,16 +340,28 @@ class Params:
 
         Keys are dotted TOML keys (``**{"motor1.m0": 2.0}``) or bare names that are unique
         (``crank_speed_rpm=120``, ``L1=0.25``); ``linkage=`` takes a whole description (the
-        ``[linkage]`` table of a file, as a dict).
+        ``[linkage]`` table of a file, as a dict).  A change of entries that the set only keeps in
+        a field of their name (the crank speed, the damping ratio, the scheme, ...) checks those
+        entries and keeps the rest of the set; any other change validates the whole set again.
 
         >>> p = load_params().replace(crank_speed_rpm=120)
         """
         values = dict(self.values)
+        changed = []
         for key, value in changes.items():
             if key == "linkage":  # a whole description, as the [linkage] table of a file
                 values["linkage"] = value
+                changed.append("linkage")
                 continue
-            values[_resolve_key(key, values)] = value
+            changed.append(_resolve_key(key, values))
+            values[changed[-1]] = value
+        if all(k in _FIELD_ONLY and k not in self.references for k in changed):
+            # entries that the set holds in a field of their own and nothing else is made of
+            # (a new crank speed): checked as _build checks them, the rest of the set as it is
+            checked = {k: _check(k, values[k]) for k in changed}
+            values.update(checked)
+            return replace(self, **{k.split(".", 1)[1]: v for k, v in checked.items()}, values=values,
+                           meta=dict(self.meta))
         return _build(values, dict(self.meta))
 
 
@@ -392,6 +404,17 @@ def _flatten(doc: Mapping[str, Any], origin: str) -> tuple[dict[str, Any], dict[
     return values, meta
 
 
+#: The entries of the schema that :func:`_build` only checks (:func:`_check`) and keeps in the
+#: field of :class:`Params` of their name: the section, the material, the motors and the
+#: linkage description are made of other entries (or of any entry the description refers to,
+#: the set's ``references``), and ``bending_depth``, a field too, is checked against the
+#: section's sides (:data:`_CROSS_CHECKED`).  :meth:`Params.replace` of such entries alone
+#: checks them and keeps the rest of the set as it is (a new crank speed costs one check).
+_CROSS_CHECKED = frozenset({"assumptions.bending_depth"})
+_FIELD_ONLY = frozenset(k for k in _SCHEMA if k.split(".", 1)[0] in ("simulation", "assumptions")
+                        and k.split(".", 1)[1] in {f.name for f in fields(Params)}) - _CROSS_CHECKED
+
+
 def _build(values: Mapping[str, Any], meta: Mapping[str, Mapping[str, Any]]) -> Params:
     checked: dict[str, Any] = {}
     for key in _SCHEMA:
@@ -429,6 +452,7 @@ def _build(values: Mapping[str, Any], meta: Mapping[str, Mapping[str, Any]]) -> 
         for k, v in checked.items()
         if k.split(".", 1)[0] in ("geometry", "material", "masses", "simulation")
     }
+    # (the one check of an entry against others: _CROSS_CHECKED)
     d, sides = a["bending_depth"], (checked["geometry.width"], checked["geometry.thickness"])
     if not any(math.isclose(d, side, rel_tol=1e-9) for side in sides):
         raise ParameterError(

@@ -180,14 +180,19 @@ class Setup:
         """The parameters at this set-up's crank speed."""
         if self.crank_speed_rpm == self.params.crank_speed_rpm:
             return self.params
-        return self.params.replace(crank_speed_rpm=self.crank_speed_rpm)
+        return self.params.replace(**{"assumptions.crank_speed_rpm": self.crank_speed_rpm})
 
-    def dynamics(self):
+    def dynamics(self, keep: bool = True):
         """The :class:`~fivebar.dynamics.LinkageDynamics` of this set-up, built once and kept in
         the library's store (:mod:`fivebar.cache`): equal set-ups (the scheme aside, which the
-        dynamics do not depend on) share one."""
+        dynamics do not depend on) share one.  ``keep=False``: the stored one if there is one,
+        else built and not stored, for a caller that keeps its own (the period map of a
+        continuation, nearly every period of which is at a new speed)."""
         key = ("setup.dynamics", self.params, self.crank_speed_rpm, self.steps_per_period, self.motors,
                self.nonlinear, self.elements_per_link)
+        if not flag("keep", keep):
+            hit = STORE.lookup(key)
+            return self._build_dynamics() if hit is None else hit
         return STORE.get(key, self._build_dynamics)
 
     def _build_dynamics(self):

@@ -19,6 +19,7 @@ module knows nothing of the linkage nor of the schemes.
 
 from __future__ import annotations
 
+import copy
 import inspect
 from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
@@ -182,17 +183,33 @@ class PeriodicStepData:
                 raise InputError(
                     f"{name} has shape {X.shape}: expected ({S}, {n}, {n}) or ({n}, {n})")
             out.append(np.broadcast_to(X, (S, n, n)))
+        self.M, self.C, self.K = out
+        #: True if M is the same at every step (a 2-D array was given)
+        self.M_constant = arrs[0].ndim == 2
+        self.steps, self.n = int(S), int(n)
+        self._set_time(F, t0, period)
+
+    def _set_time(self, F: Array, t0: float, period: float) -> None:
+        """Set the force ``F`` (an array checked by :func:`~fivebar.errors.array`; its shape
+        checked here) and the time points: what :meth:`with_force` changes."""
+        S, n = self.steps, self.n
         if F.shape not in ((n,), (S, n)):
             raise InputError(f"F has shape {F.shape}: expected ({S}, {n}) or ({n},)")
         period = number("period", period, low=0.0, low_open=True, unit="s")
         t0 = number("t0", t0, unit="s")
-        self.M, self.C, self.K = out
-        #: True if M is the same at every step (a 2-D array was given)
-        self.M_constant = arrs[0].ndim == 2
         self.F = np.broadcast_to(F, (S, n))
-        self.t0, self.period, self.steps, self.n = float(t0), float(period), int(S), int(n)
+        self.t0, self.period = float(t0), float(period)
         self.dt = self.period / self.steps
         self._kernel_arrays: tuple[Array, Array, Array, Array] | None = None
+
+    def with_force(self, F: ArrayLike, period: float) -> PeriodicStepData:
+        """The same ``M, C, K`` (shared, not checked again) with the force ``F`` and the
+        period ``period`` (the same step points on another time scale: the linkage at another
+        crank speed), ``F`` and ``period`` checked as the constructor checks them.  A new
+        object, with LU caches of its own (its time step differs)."""
+        new = copy.copy(self)
+        new._set_time(array("F", F), self.t0, period)
+        return new
 
     @classmethod
     def from_system(cls, system: SecondOrderSystem, t0: float, period: float,
