@@ -234,14 +234,18 @@ def test_floquet_multipliers_equal_those_of_the_finite_difference_monodromy(nonl
     for i in range(2 * n):
         e = np.zeros(2 * n)
         e[i] = 1e-5 * scale[i]
-        xp, xm = (_period(d, y[:n], y[n:], scheme, store="last") for y in (x + e, x - e))
+        xp, xm = (_period(d, y[:n], y[n:], scheme, store="last", rtol=1e-14) for y in (x + e, x - e))
         J[:, i] = (np.concatenate([xp.u[-1], xp.v[-1]]) - np.concatenate([xm.u[-1], xm.v[-1]])) / (2 * e[i])
     fd = np.linalg.eigvals(J)
     fd = fd[np.argsort(-np.abs(fd))]
     mult = st.floquet_multipliers
     # central differences with a step of 1e-5 of the state's scale: O(1e-10) error in the Jacobian,
     # which moves its small eigenvalues by up to ~1e-9 depending on the orbit's start (the orbit
-    # itself depends on the starting guess to its 1e-9 tolerance, e.g. on the predictor's memory)
+    # itself depends on the starting guess to its 1e-9 tolerance, e.g. on the predictor's memory).
+    # The differenced periods solve each step's Newton to 1e-14, not the default 1e-10: a step that
+    # converges in one update from the extrapolated iterate meets 1e-10 with little to spare, and
+    # that error over the difference step (1e-10 / 1e-5) would be 1e-5 of the Jacobian; the
+    # monodromy is the derivative of the step at its converged state, which that error hardly moves
     assert np.allclose(np.abs(mult[:6]), np.abs(fd[:6]), rtol=1e-5, atol=1e-8)
     assert abs(mult[0]) > 0.05  # the comparison is not among vanishing multipliers
     g = st.u[-1] - st.u[0], st.v[-1] - st.v[0]

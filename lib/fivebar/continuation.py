@@ -564,7 +564,7 @@ def continuation(
 
 
 def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: float,
-             max_newton: int, target: float | None):
+             max_newton: int, target: float | None, start: Array | None = None):
     """Damped chord-Newton corrector from the predictor; ``(y, iterations)`` or None.
 
     An update whose period fails to integrate, or that multiplies the residual by more than
@@ -576,8 +576,9 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
     orientation's benchmark branch: 84 of the 109 rejected steps that took a fresh Jacobian
     grew the residual with it, against 2 of the 167 accepted ones, and no accepted step had two
     such updates in a row).  ``target``: correct onto ``p = target`` instead of the arclength
-    constraint."""
-    y = yk + h * tk
+    constraint.  ``start``: the first iterate (on the constraint ``tk (y - yk) = h``) instead
+    of the tangent predictor ``yk + h tk``."""
+    y = yk + h * tk if start is None else np.array(start, float)
     if target is not None:
         y[-1] = target
     row = np.zeros_like(tk)
@@ -678,9 +679,15 @@ def _detect(prob, a: BranchPoint, b: BranchPoint, index, yk, tk, step, locate, l
 def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, tol, max_newton, Jc=None):
     """Illinois regula falsi on the arclength s in (0, step); the bifurcation and whether it
     was located (else it is reported at b).  ``Jc``: the Jacobian at ``yk`` (the last point's,
-    which the continuation has; else computed here)."""
+    which the continuation has; else computed here).  Each trial point is corrected from the
+    chord between the two corrected points that bracket it (both on the branch and on their
+    constraints, so the chord's point at s is on its constraint): nearer the branch than the
+    tangent predictor from ``yk``, which on a long step bending through a fold left the
+    corrector's basin (on the flexible orientation's benchmark branch a period doubling at
+    246.1 r/min was found by its sign change and then lost so)."""
     D, ps = prob.D, prob.ps
     s0, s1 = 0.0, step
+    y0, y1 = yk, np.r_[b.x / D, b.p / ps]  # the corrected points at s0, s1
     f0, f1 = fa, fb
     q0, q1 = a.p, b.p  # parameters at s0, s1
     side = 0
@@ -693,7 +700,8 @@ def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, 
             s = 0.5 * (s0 + s1)
         if Jc is None:
             Jc, _, _ = prob.jac(yk)
-        res = _correct(prob, yk, tk, s, Jc, tol, max_newton, None)
+        res = _correct(prob, yk, tk, s, Jc, tol, max_newton, None,
+                       start=y0 + (s - s0) / (s1 - s0) * (y1 - y0))
         if res is None:
             break
         y, _ = res
@@ -708,12 +716,12 @@ def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, 
             break
         best = (y, mu, t, f)
         if f * f1 < 0:
-            s0, f0, q0 = s1, f1, q1
+            s0, f0, q0, y0 = s1, f1, q1, y1
             side = 0
         else:
             f0 = 0.5 * f0 if side == 1 else f0
             side = 1
-        s1, f1, q1 = s, f, float(y[-1] * ps)
+        s1, f1, q1, y1 = s, f, float(y[-1] * ps), y
         if abs(f) <= 1e-10:
             s0, q0 = s1, q1
             break
