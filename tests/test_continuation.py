@@ -257,7 +257,8 @@ def test_the_stats_account_for_every_map_application_by_purpose():
     # a helix of fixed points x*(p) = (sin 4p, cos 4p) of a map whose G = -atan(K (x - x*)) / (2 K) has a
     # Newton basin of |K (x - x*)| < 1.39: the tangent predictor's error (curvature ~1 per unit arclength) leaves
     # it for steps above ~0.05, where the corrector diverges and the step is rejected (measured: 90 points, 73
-    # rejected steps, 2457 map applications, 1620 of them in the rejected steps)
+    # rejected steps, 2457 map applications, 1620 of them in the rejected steps; since the corrector gives up
+    # sooner: 107 points, 107 rejected steps, 1926 map applications, 1192 of them in the rejected steps)
     K = 1e3
 
     def xs(p):
@@ -281,6 +282,10 @@ def test_the_stats_account_for_every_map_application_by_purpose():
     # the rejected steps' work is theirs: at least the predictor's period of each
     assert s["rejected"] > 10 and by["rejected"]["periods"] >= s["rejected"] and by["rejected"]["newton"] > 0
     assert by["start"]["periods"] >= 3 and by["locate"] == {"periods": 0, "monodromies": 0, "newton": 0}
+    # a corrector whose fresh Jacobians lead out of the basin gives up (the corrector's rule: two full updates
+    # of fresh Jacobians in a row that do not reduce the residual, or one that fails): measured 11.1 periods per
+    # rejected step, 15.0 when it went on to its damped trials and further Jacobians (the same 107 rejections)
+    assert by["rejected"]["periods"] <= 12 * s["rejected"]
 
 
 def test_continuation_and_shooting_run_on_one_blas_thread():
