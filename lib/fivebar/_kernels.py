@@ -457,17 +457,18 @@ def guess_order(j):
 
 
 @njit(cache=True)
-def newton(c, Mb, C, K, F, fnl, Kt, w, force, kk, rdata, idata, tol, max_iter, full, LUc, pivc,
-           have, li, St, piv, info, j, t):
+def newton(c, Mb, C, K, F, fnl, Kt, w, force, kk, rdata, idata, tol, max_iter, full, sens, LUc,
+           pivc, have, li, St, piv, info, j, t):
     """Newton's iteration of a nonlinear step of the compiled loop from the iterate ``w[U1]``
     (:func:`predict`); ``full``: the consistent tangent, else the cached linear one.  The
     tangent is evaluated with the force at the first iterate (an update nearly always follows)
-    and after that only when an update follows.  Returns ``(status, iterations, fresh)``,
-    ``fresh`` True if ``Kt`` is the tangent at the converged iterate; a failure fills ``info``
-    (step ``j``, time ``t``)."""
+    and after that only when an update follows, or with the force at every iterate if
+    ``sens`` (the sensitivity needs it at the converged one).  Returns ``(status, iterations,
+    fresh)``, ``fresh`` True if ``Kt`` is the tangent at the converged iterate; a failure
+    fills ``info`` (step ``j``, time ``t``)."""
     k_it = 0
     du_norm = math.inf
-    want = full
+    want = full or sens
     while True:
         force(w[U1], kk, rdata, idata, fnl, Kt, want)
         rn, ref = residual(c, Mb, C, K, F, fnl, w, True)
@@ -494,7 +495,7 @@ def newton(c, Mb, C, K, F, fnl, Kt, w, force, kk, rdata, idata, tol, max_iter, f
                 return SINGULAR, k_it, want
             du_norm = correct(LUc[li], pivc[li], w)
         k_it += 1
-        want = False
+        want = sens
 
 
 # --- the compiled loop ----------------------------------------------------------------------------
@@ -551,8 +552,8 @@ def march(Ms, Cs, Ks, Fs, k0, c, x, nsteps, t0, force, rdata, idata, nonlin, Ktp
             while True:
                 predict(c, Mb, x, w, order)
                 status, k_it, fresh = newton(c, Mb, C, K, F, fnl, Kt, w, force, kk, rdata, idata,
-                                             tol, max_iter, full, LUc, pivc, have, li, St, piv,
-                                             info, j, t)
+                                             tol, max_iter, full, sens, LUc, pivc, have, li, St,
+                                             piv, info, j, t)
                 if status == OK or status == SINGULAR or order == 0:
                     break
                 order = 0
