@@ -577,3 +577,20 @@ def test_full_newton_on_a_nonlinear_system_makes_no_linear_tangent_cache():
     modified = integrate(sysm, u0, v0, 0.0, T / S, S, step_data=sd, newton="modified")
     assert len(sd._lu_factors()) == 1 and all(next(iter(sd._lu_factors().values()))[2])
     assert np.max(np.abs(full.u - modified.u)) < 1e-8 * np.max(np.abs(full.u))
+
+
+def test_the_memory_check_reads_the_system_only_for_large_requests(monkeypatch):
+    """``errors.memory`` compares a request with the available memory only from CHECKED_BYTES
+    up (a period of a continuation asks for kilobytes, and reading /proc/meminfo took about 0.1
+    ms of each); a request above what is available is refused by name, with its size."""
+    from fivebar import errors
+
+    reads = []
+    monkeypatch.setattr(errors, "available_memory", lambda: reads.append(1) or 2**30)
+    errors.memory(errors.CHECKED_BYTES - 1, "a small array", "none")
+    assert not reads
+    r = integrate(System([[1.0]], [[0.0]], [[1.0]]), [1.0], [0.0], 0.0, 0.1, 100)  # 100 steps stored
+    assert r.u.shape == (101, 1) and not reads
+    with pytest.raises(errors.ResourceError, match=r"the big array need about 2 GiB.*remedy"):
+        errors.memory(2 * 2**30, "the big array", "remedy")
+    assert reads
