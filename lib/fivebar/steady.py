@@ -293,14 +293,17 @@ def _period(dyn, u0, v0, scheme, store="all", sensitivity=False, rtol=1e-10, max
     """One period of the Newmark map from (u0, v0) at t = 0.
 
     Newton's iteration of each step: for a small model (up to :data:`_DENSE_MAX_DOFS` DOFs)
-    full Newton first (the step's tangent refactorised per iteration: cheaper than the extra
-    force evaluations of modified Newton, about 2 against 3.7 iterations per step on the orbit,
-    and robust to the large updates of shooting), modified Newton (the cached linear tangent)
-    if that fails: from rest the excited stiff modes make the a_{n+1} = a_n predictor poor, and
-    full Newton can cycle where modified Newton converges.  For a larger model the order is
-    the other way round: a factorisation costs n^3 against the n^2 of an iteration with the
-    cached one (on the (4,8,8,4) mesh, 94 DOFs, one period at S = 100 takes 44 ms with full
-    Newton and 14 ms with modified Newton).
+    full Newton first (the step's tangent refactorised per iteration: about 1.3 against 3.1
+    iterations per step on the default orientation's orbit at S = 100, from the extrapolated
+    first iterate of :func:`fivebar.newmark.integrate`, at the same cost when the linear
+    tangent's factors are cached and less where they are not, as at every new speed of a
+    continuation; and robust to the large updates of shooting), modified Newton (the cached
+    linear tangent) if that fails: from rest the excited stiff modes make the history rough,
+    and full Newton can cycle where modified Newton converges; on the flexible orientation
+    (S = 800) modified Newton does not converge in the first step of the orbit.  For a larger
+    model the order is the other way round: a factorisation costs n^3 against the n^2 of an
+    iteration with the cached one (on the (4,8,8,4) mesh, 98 DOFs, one period at S = 100
+    takes 24 ms with full Newton and 19 ms with modified Newton, its factors cached).
     """
     kw = dict(step_data=dyn.step_data, store=store, sensitivity=sensitivity, rtol=rtol,
               max_iter=max_iter, directions=directions)
