@@ -315,8 +315,8 @@ def follow(
         flexible orientation (10-300 r/min, S = 800, nonlinear; the benchmark
         ``benchmarks/bench_continuation.py``) the branch turns back at four folds (169.6, 160.9, 247.7 and
         171.3 r/min); with ``ds_max`` = 1.5 / points the median step was that bound and 200
-        points ended at 207.6 r/min, with 10 / points the branch reached 300 r/min in 196
-        points (median step 0.0053, largest 0.05).
+        points ended at 207.6 r/min, with 10 / points the branch reached 300 r/min in 197
+        points (median step 0.0056, largest 0.05).
     scale
         Scale of the state (default: from the energy norm, relative to the largest orbit of
         the linear model at 12 values across the range; see ``_scan_scale``).
