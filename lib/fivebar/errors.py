@@ -182,7 +182,7 @@ def memory(nbytes: float, what: str, remedy: str) -> None:
 
     ``what`` says what would be allocated and from which arguments (``"the step matrices,
     steps_per_period = 10**9 x 22 x 22 doubles"``), ``remedy`` what to change.  Below
-    :data:`CHECKED_BYTES` nothing is checked: reading the system's memory costs about 0.1 ms,
+    ``CHECKED_BYTES`` nothing is checked: reading the system's memory costs about 0.1 ms,
     which every period of a continuation would pay for a few kilobytes.
     """
     if nbytes < CHECKED_BYTES:
