@@ -564,7 +564,7 @@ def continuation(
 
 
 def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: float,
-             max_newton: int, target: float | None, start: Array | None = None):
+             max_newton: int, target: float | None, start: Array | None = None, give_up: bool = True):
     """Damped chord-Newton corrector from the predictor; ``(y, iterations)`` or None.
 
     An update whose period fails to integrate, or that multiplies the residual by more than
@@ -577,7 +577,9 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
     grew the residual with it, against 2 of the 167 accepted ones, and no accepted step had two
     such updates in a row).  ``target``: correct onto ``p = target`` instead of the arclength
     constraint.  ``start``: the first iterate (on the constraint ``tk (y - yk) = h``) instead
-    of the tangent predictor ``yk + h tk``."""
+    of the tangent predictor ``yk + h tk``.  ``give_up``: False for a point between two points
+    of the branch (the locator's trials), which is not abandoned early: there the alternative is
+    not a shorter step but a lost location."""
     y = yk + h * tk if start is None else np.array(start, float)
     if target is not None:
         y[-1] = target
@@ -628,7 +630,7 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
             lam, gt = 1.0, None
             for _ in range(4):
                 gt = residual(y + lam * dy)
-                if current and lam == 1.0:  # Newton's own update: out of the basin?
+                if give_up and current and lam == 1.0:  # Newton's own update: out of the basin?
                     if gt is None:
                         return None
                     grew = grew + 1 if np.linalg.norm(np.r_[gt, constraint(y + dy)]) >= rn else 0
@@ -692,23 +694,30 @@ def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, 
     q0, q1 = a.p, b.p  # parameters at s0, s1
     side = 0
     best = None
+    failed = 0  # trials whose point or Jacobian could not be made: the next ones inside the bracket
     for _ in range(60):
         if abs(s1 - s0) <= locate_tol:
             break
         s = s1 - f1 * (s1 - s0) / (f1 - f0)
         if not (min(s0, s1) < s < max(s0, s1)):
             s = 0.5 * (s0 + s1)
+        if failed:
+            s = s0 + (0.5, 0.25, 0.75)[failed - 1] * (s1 - s0)
         if Jc is None:
             Jc, _, _ = prob.jac(yk)
         res = _correct(prob, yk, tk, s, Jc, tol, max_newton, None,
-                       start=y0 + (s - s0) / (s1 - s0) * (y1 - y0))
-        if res is None:
-            break
-        y, _ = res
+                       start=y0 + (s - s0) / (s1 - s0) * (y1 - y0), give_up=False)
         try:
+            if res is None:
+                raise ContinuationError("the trial point's corrector did not converge")
+            y, _ = res
             J, g, Phi = prob.jac(y)
-        except FivebarError:  # a period from the trial point fails to integrate
-            break
+        except FivebarError:  # no point there, or a period from it fails to integrate
+            failed += 1
+            if failed > 3:
+                break
+            continue
+        failed = 0
         t = _tangent(J, tk)
         mu = floquet_multipliers(Phi)
         f = _tests(mu, t)[kind]
