@@ -235,6 +235,42 @@ def test_a_point_whose_jacobian_fails_is_a_rejected_step():
         assert sum(c[k] for c in by.values()) == br.stats[k]
 
 
+def test_a_locating_trial_that_fails_is_followed_by_others_inside_the_bracket(monkeypatch):
+    """Where a trial point of the locator has no Jacobian (here: the map refuses every other
+    Jacobian asked while locating), the next trials go to the middle and the quarters of the
+    bracket instead of ending the location: both folds of the Duffing loop are still located to
+    the bracket of the plain run (chapter 13's rerun with l2_damping.toml lost one so)."""
+    import fivebar.continuation as cont
+
+    zeta, alpha, F, S = 0.05, 1.0, 0.1, 100
+    f = _duffing(zeta, alpha, F, S)
+    plain = continuation(f, np.zeros(2), 1.0, 1.4, ds=0.05, ds_max=0.3)
+    state = {"locating": False, "asked": 0}
+    locate = cont._locate
+
+    def locating(*args, **kwargs):
+        state["locating"] = True
+        try:
+            return locate(*args, **kwargs)
+        finally:
+            state["locating"] = False
+
+    def refusing(x, p, jacobian):
+        if jacobian and state["locating"]:
+            state["asked"] += 1
+            if state["asked"] % 2:
+                raise NewtonConvergenceError("refused", 0.0, math.nan, 0)
+        return f(x, p, jacobian)
+
+    monkeypatch.setattr(cont, "_locate", locating)
+    br = continuation(refusing, np.zeros(2), 1.0, 1.4, ds=0.05, ds_max=0.3)
+    assert state["asked"] > 4
+    assert [b.kind for b in br.bifurcations] == [b.kind for b in plain.bifurcations] == ["fold", "fold"]
+    for b, ref in zip(br.bifurcations, plain.bifurcations):
+        assert abs(b.critical - 1) < 1e-6 and abs(b.p - ref.p) < 1e-9
+        assert abs(b.p_bracket[1] - b.p_bracket[0]) < 1e-6
+
+
 def test_a_large_maximum_step_does_not_skip_the_folds():
     # ds_max the whole range: the step is set by the branch's curvature (and the corrector),
     # so the narrow hysteresis loop of the Duffing oscillator is still followed around both
