@@ -181,17 +181,6 @@ def matvec(A, x, out):
 
 
 @njit(cache=True)
-def gemm_acc(alpha, A, B, out, tmp):
-    """``out += alpha A @ B``; the product by BLAS (``tmp`` receives it): for the (n, 2n-3n)
-    sensitivity blocks three times faster than loops."""
-    np.dot(A, B, tmp)
-    n, p = out.shape
-    for i in range(n):
-        for j in range(p):
-            out[i, j] += alpha * tmp[i, j]
-
-
-@njit(cache=True)
 def nrm2(x):
     """Euclidean norm without a temporary."""
     s = 0.0
@@ -398,7 +387,7 @@ def finish(c, C, K, F, fnl, x, w):
 
 @njit(cache=True)
 def sensitivity(c, LU, piv, Mb, C, Kp, Cp, Kt, Ktp, nonlin, P, PW, A):
-    """The step Jacobian applied to the blocks ``P`` (3, n, m), in place (``PW`` (6, n, m)
+    """The step Jacobian applied to the blocks ``P`` (3, n, m), in place (``PW`` (3, n, m)
     and ``A`` (n, 3 n) work): the linearised step with the converged tangent's LU (``LU,
     piv``), ``Kp, Cp`` and ``Ktp`` (if ``nonlin``) the matrices at ``t_n`` for the alpha terms;
     ``Ktp`` then becomes ``Kt``, the tangent at ``t_{n+1}``.
@@ -410,7 +399,7 @@ def sensitivity(c, LU, piv, Mb, C, Kp, Cp, Kt, Ktp, nonlin, P, PW, A):
     of up to six)."""
     dt, c_up, c_vp, bdt2, gdt, am, af = c[DT], c[C_UP], c[C_VP], c[BDT2], c[GDT], c[AM], c[AF]
     Pu, Pv, Pa = P[0], P[1], P[2]
-    Dut, Dvt, dR = PW[0], PW[1], PW[4]
+    Dut, Dvt, dR = PW[0], PW[1], PW[2]
     n, m = Pu.shape
     alpha = is_alpha(c)
     # da* = -(Pu + dt Pv + c_up Pa) / bdt2;  dv* = Pv + c_vp Pa + gdt da*
@@ -525,7 +514,7 @@ def march(Ms, Cs, Ks, Fs, k0, c, x, nsteps, t0, force, rdata, idata, nonlin, Ktp
     Mbw = np.empty((n, n))
     m = P.shape[2]
     sens = m > 0
-    PW = np.empty((6, n, m))
+    PW = np.empty((3, n, m))
     A = np.empty((n, 3 * n))
     store = X.shape[1] == nsteps + 1
     u1 = w[U1]

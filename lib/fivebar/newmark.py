@@ -524,7 +524,7 @@ def _march_python(kern, c, x, P, data, nl, t0, nsteps, k0, M_const, refactor, Kt
     fnl, Kt, Ktp = np.zeros(n), np.zeros((n, n)), np.array(Kt0)
     St, piv, Mbw = np.empty((n, n)), np.empty(n, np.int64), np.empty((n, n))
     sens = P.shape[2] > 0
-    PW, A = np.empty((6, n, P.shape[2])), np.empty((n, 3 * n))
+    PW, A = np.empty((3, n, P.shape[2])), np.empty((n, 3 * n))
     store = X.shape[1] == nsteps + 1
     LUc, pivc, have = cache
     info = np.zeros(7)
