@@ -26,8 +26,8 @@ by more than 10 (Newton's residual may grow for an iteration on its way; a tenfo
 taken for divergence); a step that fails with the present Jacobian too is rejected.  Step-size control: a step whose corrector needs
 more than ``max_newton`` iterations (or fails), whose corrector ends farther than half
 the step from the predictor, or at whose corrected point the Jacobian cannot be made (a
-period from it, or at ``p + dp``, fails to integrate), is halved (down to ``ds_min``); after a converged step the next
-is scaled by :math:`\sqrt{0.1\,\Delta s/\delta}`, :math:`\delta` the distance of the
+period from it, or at ``p + dp``, fails to integrate), is halved (down to ``ds_min``); after
+a converged step the next is scaled by :math:`\sqrt{0.1\,\Delta s/\delta}`, :math:`\delta` the distance of the
 corrected point from the predictor (about :math:`\kappa\Delta s^2/2` on a curve of curvature
 :math:`\kappa`: the tangent then turns by about 0.2 rad per step), the factor kept within
 0.5 and 2 (at most 1 after more than ``max_newton // 2 + 1`` iterations), the step within
@@ -630,16 +630,15 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
             lam, gt = 1.0, None
             for _ in range(4):
                 gt = residual(y + lam * dy)
+                rt = None if gt is None else float(np.linalg.norm(np.r_[gt, constraint(y + lam * dy)]))
                 if give_up and current and lam == 1.0:  # Newton's own update: out of the basin?
-                    if gt is None:
+                    if rt is None:
                         return None
-                    grew = grew + 1 if np.linalg.norm(np.r_[gt, constraint(y + dy)]) >= rn else 0
+                    grew = grew + 1 if rt >= rn else 0
                     if grew >= 2:
                         return None
-                if gt is not None:
-                    rt = float(np.linalg.norm(np.r_[gt, constraint(y + lam * dy)]))
-                    if rt < 10.0 * rn or np.linalg.norm(gt) <= floor:
-                        break
+                if rt is not None and (rt < 10.0 * rn or np.linalg.norm(gt) <= floor):
+                    break
                 gt = None
                 lam *= 0.5
             if gt is not None:
@@ -707,12 +706,14 @@ def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, 
             Jc, _, _ = prob.jac(yk)
         res = _correct(prob, yk, tk, s, Jc, tol, max_newton, None,
                        start=y0 + (s - s0) / (s1 - s0) * (y1 - y0), give_up=False)
-        try:
-            if res is None:
-                raise ContinuationError("the trial point's corrector did not converge")
+        J = None
+        if res is not None:
             y, _ = res
-            J, g, Phi = prob.jac(y)
-        except FivebarError:  # no point there, or a period from it fails to integrate
+            try:
+                J, g, Phi = prob.jac(y)
+            except FivebarError:  # a period from the trial point fails to integrate
+                pass
+        if J is None:  # no point there, or no Jacobian at it
             failed += 1
             if failed > 3:
                 break
