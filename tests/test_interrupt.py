@@ -123,6 +123,41 @@ def test_a_signal_stops_a_two_process_sweep_and_keeps_the_finished_points(sig, t
     assert elapsed < 60  # generous: catches only a sweep that runs the remaining speeds
 
 
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_signal_while_a_point_is_kept_waits_until_it_is_in_the_rows_and_the_store(sig, monkeypatch):
+    """The signal that failed CI at stop 27 arrived between a point's row and its entry in the
+    store (2 rows returned, 1 cached).  Here it is sent from inside ``STORE.put`` of the first
+    point, before the real put runs: the sweep stops after that point, which is in the rows and
+    in the store, counted once.  (Planted: without the hold the signal raises inside the put,
+    and the row is kept with no entry.)"""
+    import fivebar
+    import fivebar.sweep as sw
+    from fivebar.cache import STORE
+
+    params = fivebar.load_params()
+    setup = fivebar.Setup(params, steps_per_period=200, nonlinear=False)
+    fivebar.clear_cache()
+    real = STORE.put
+    sent = []
+
+    def put(key, value, owner=None):
+        if key[0] == sw._POINTS and not sent:
+            sent.append(sig)
+            os.kill(os.getpid(), sig)  # its Python handler runs before the next line
+        real(key, value, owner)
+
+    monkeypatch.setattr(STORE, "put", put)
+    with pytest.raises(sw.SweepInterrupted) as info:
+        sw.speed_sweep(setup, [100.0, 150.0, 200.0], progress=False)
+    assert sent and info.value.signal == sig
+    assert len(info.value.results) == 1 and info.value.results["speed (r/min)"].tolist() == [100.0]
+    assert len(STORE.keys(sw._POINTS)) == 1
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    fivebar.clear_cache()
+
+
 def test_sigterm_stops_the_dataset_writer_and_keeps_its_rows(tmp_path):
     from fivebar import datasets
 

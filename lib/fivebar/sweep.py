@@ -79,30 +79,59 @@ class _Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread while a sweep runs."""
 
 
-@contextlib.contextmanager
-def _sigterm_interrupts():
-    """While a sweep runs in the main thread, SIGTERM raises :class:`_Terminated` (as Ctrl-C
-    raises KeyboardInterrupt), so that the workers are stopped and the finished rows kept; the
-    previous handler is restored after.  A handler set by the program is left alone."""
-    if threading.current_thread() is not threading.main_thread() or \
-            signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
-        yield
-        return
+class _Signals:
+    r"""While a sweep runs in the main thread, SIGTERM raises :class:`_Terminated` (as Ctrl-C
+    raises KeyboardInterrupt), so that the workers are stopped and the finished rows kept.
 
-    main = os.getpid()
+    Inside :meth:`held` (the bookkeeping of a finished point: its row and its entry in the
+    store) either signal waits and is raised at the end of the block, so that a point is never
+    kept in the rows and not in the store, nor half counted in the store.  A handler the program
+    set itself is left alone; the previous handlers are restored after the sweep."""
 
-    def handler(signum, frame):
-        if os.getpid() != main:  # a worker forked while the handler was set: die as by default
-            signal.signal(signal.SIGTERM, signal.SIG_DFL)
-            os.kill(os.getpid(), signal.SIGTERM)
+    def __init__(self) -> None:
+        self.holding = False
+        self.pending: BaseException | None = None
+
+    @contextlib.contextmanager
+    def installed(self):
+        if threading.current_thread() is not threading.main_thread():
+            yield self
             return
-        raise _Terminated(signum)
+        main = os.getpid()
 
-    signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        def handler(signum, frame):
+            if os.getpid() != main:  # a worker forked while the handler was set: as by default
+                if signum == signal.SIGINT:
+                    signal.default_int_handler(signum, frame)
+                signal.signal(signum, signal.SIG_DFL)
+                os.kill(os.getpid(), signum)
+                return
+            exc = _Terminated(signum) if signum == signal.SIGTERM else KeyboardInterrupt()
+            if self.holding:
+                self.pending = self.pending or exc
+                return
+            raise exc
+
+        defaults = {signal.SIGTERM: signal.SIG_DFL, signal.SIGINT: signal.default_int_handler}
+        mine = [sig for sig, default in defaults.items() if signal.getsignal(sig) is default]
+        for sig in mine:
+            signal.signal(sig, handler)
+        try:
+            yield self
+        finally:
+            for sig in mine:
+                signal.signal(sig, defaults[sig])
+
+    @contextlib.contextmanager
+    def held(self):
+        self.holding = True
+        try:
+            yield
+        finally:
+            self.holding = False
+            if self.pending is not None:
+                exc, self.pending = self.pending, None
+                raise exc
 
 
 def _stop_executor(executor: cf.Executor, futures) -> None:
@@ -277,21 +306,25 @@ def speed_sweep(
             todo.append(s)
     futures: dict = {}
     try:
-        with _sigterm_interrupts(), \
+        with _Signals().installed() as signals, \
                 tqdm(total=len(todo), disable=not progress, desc="crank speeds", unit="speed") as bar:
             if executor is None:
                 for s in todo:
-                    results[s] = sweep_point(base.replace(crank_speed_rpm=s), *point)
-                    if cache:
-                        STORE.put(key(s), results[s])
+                    row = sweep_point(base.replace(crank_speed_rpm=s), *point)
+                    with signals.held():
+                        results[s] = row
+                        if cache:
+                            STORE.put(key(s), row)
                     bar.update()
             else:
                 futures = {executor.submit(sweep_point, base.replace(crank_speed_rpm=s), *point): s for s in todo}
                 for fut in cf.as_completed(futures):
                     s = futures[fut]
-                    results[s] = fut.result()
-                    if cache:
-                        STORE.put(key(s), results[s])
+                    row = fut.result()
+                    with signals.held():
+                        results[s] = row
+                        if cache:
+                            STORE.put(key(s), row)
                     bar.update()
     except KeyboardInterrupt as exc:
         if executor is not None:
