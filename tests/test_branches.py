@@ -155,3 +155,28 @@ def test_period_map_dynamics_at_a_new_speed_equal_a_fresh_build():
             f.dynamics(bad)
     with pytest.raises(FivebarError, match="keep = 'no'"):
         s.dynamics(keep="no")
+
+
+def test_the_linkage_map_at_two_speeds_in_two_threads_equals_it_in_one():
+    # the continuation integrates its difference in p beside the monodromy period (the map says
+    # ``concurrent``); on the nonlinear flexible orientation (the compiled strain force in the
+    # compiled loop, which releases the GIL) the results of the two threads, each at its own
+    # fresh speed, equal those of one call after the other to the bit, ten times over
+    import threading
+
+    p = fivebar.load_params().replace(bending_depth=0.002)
+    s = fivebar.Setup(p, crank_speed_rpm=60, steps_per_period=200, motors=False, nonlinear=True)
+    x0 = linkage_period_map(s).state(steady_state(s))
+    f = linkage_period_map(s)
+    assert f.concurrent
+    for i in range(10):
+        speeds = (60.0 + 0.1 * i, 60.0 + 0.1 * i + 1e-4)
+        serial = [linkage_period_map(s)(x0, speeds[0], True), linkage_period_map(s)(x0, speeds[1], False)]
+        out = {}
+        t = threading.Thread(target=lambda: out.update(b=f(x0, speeds[1], False)))
+        t.start()
+        a = f(x0, speeds[0], True)
+        t.join()
+        assert np.array_equal(a[0], serial[0][0]) and np.array_equal(a[1], serial[0][1])
+        assert np.array_equal(out["b"][0], serial[1][0]) and out["b"][1] is None
+    assert len(f._dyn) == 4  # the last four speeds kept

@@ -435,3 +435,69 @@ def test_a_neutral_saddle_with_a_pair_turning_real_is_no_neimark_sacker():
     # what it found there: the pair still non-real at the neutral saddle p = 1.05, |mu| = sqrt(4.05)
     d = br.discarded[0]
     assert abs(d.p - 1.05) < 1e-6 and abs(abs(d.critical) - math.sqrt(4.05)) < 1e-6 and d.distance() > 1
+
+
+def test_the_difference_in_p_beside_the_monodromy_changes_no_number(monkeypatch):
+    # a map that allows it (``concurrent``) gets its period at p + dp in a second thread while
+    # the monodromy period runs; the branch (points, multipliers, located folds and the counts)
+    # is that of the serial order to the bit (planted: a second thread whose period starts from
+    # a perturbed state, or that is not run beside, fails the equality or the thread check)
+    import threading
+
+    import fivebar.continuation as cont
+
+    monkeypatch.setattr(cont, "_cores", lambda: 2)  # as on a machine of two cores or more
+    base = _duffing(0.05, 1.0, 0.1, 60)
+    threads = []
+
+    def make(concurrent):
+        def f(x, p=None, jacobian=False):
+            threads.append((threading.current_thread() is threading.main_thread(), jacobian))
+            return base(x, p, jacobian)
+        f.concurrent = concurrent
+        return f
+
+    runs = {}
+    for concurrent in (False, True):
+        threads.clear()
+        runs[concurrent] = continuation(make(concurrent), np.zeros(2), 0.6, 2.5, ds=0.1, ds_max=0.5)
+        seen = set(threads)
+        if concurrent:  # the plain periods of the differences in a second thread, the rest here
+            assert (False, False) in seen and (False, True) not in seen and (True, True) in seen
+        else:
+            assert seen <= {(True, False), (True, True)}
+    a, b = runs[False], runs[True]
+    assert len([x for x in a.bifurcations if x.kind == "fold"]) == 2
+    assert len(a.points) == len(b.points) and a.stats == b.stats
+    for qa, qb in zip(a.points, b.points):
+        assert np.array_equal(qa.x, qb.x) and qa.p == qb.p and np.array_equal(qa.multipliers, qb.multipliers)
+    assert [(x.kind, x.p) for x in a.bifurcations] == [(x.kind, x.p) for x in b.bifurcations]
+
+
+def test_beside_raises_the_first_error_and_waits_for_both():
+    import threading
+    import time
+
+    from fivebar.continuation import _beside
+
+    done = []
+
+    def slow():
+        time.sleep(0.05)
+        done.append(threading.current_thread().name)
+        return 2
+
+    def fail(msg):
+        def f():
+            raise FivebarError(msg)
+        return f
+
+    assert _beside(lambda: 1, slow, True) == (1, 2) and done  # the second ended before the return
+    done.clear()
+    with pytest.raises(FivebarError, match="first"):
+        _beside(fail("first"), slow, True)
+    assert done  # not left running
+    with pytest.raises(FivebarError, match="second"):
+        _beside(lambda: 1, fail("second"), True)
+    with pytest.raises(FivebarError, match="first"):  # both fail: the serial order's error
+        _beside(fail("first"), fail("second"), True)

@@ -29,6 +29,10 @@ array ``w`` (:data:`NWORK`, n) (rows :data:`UT` ... :data:`HIST`); the sensitivi
 (matrix-vector products and norms are loops; the products with the sensitivity blocks call
 BLAS).
 
+:func:`march` releases the GIL while it runs, so that two periods can be integrated at once in
+two threads (the continuation's forward difference in the parameter beside the monodromy
+period, :mod:`fivebar.continuation`).
+
 Compiled functions are cached on disk (``cache=True``) by :mod:`fivebar._jitcache`, which
 compiles the signatures of :data:`__jit_signatures__` when it loads the module (the compiled
 loop takes the force as a first-class function, whose type only an explicit signature keeps
@@ -488,7 +492,7 @@ def newton(c, Mb, C, K, F, fnl, Kt, w, force, kk, rdata, idata, tol, max_iter, f
 
 
 # --- the compiled loop ----------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def march(Ms, Cs, Ks, Fs, k0, c, x, nsteps, t0, force, rdata, idata, nonlin, Ktp, tol, max_iter,
           full, LUc, pivc, have, P, X, iters, info):
     """March ``nsteps`` steps of the scheme ``c`` (:func:`coefficients`) from the state ``x``

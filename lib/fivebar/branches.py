@@ -29,6 +29,7 @@ The glue between the linkage (:class:`fivebar.setup.Setup`, the period map of
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -89,21 +90,30 @@ class LinkagePeriodMap:
     """
 
     periods = 1
+    #: calls at two values may run at once in two threads (the compiled period releases the
+    #: GIL; the dynamics at each value are the map's own): the continuation's forward
+    #: difference in the parameter runs beside the monodromy period
+    concurrent = True
 
     def __init__(self, setup: Setup, parameter: str) -> None:
         self.setup, self.parameter = setup, parameter
         self._dyn: dict[float, Any] = {}
+        self._lock = threading.Lock()
 
     def dynamics(self, p: float):
         """The set-up's dynamics at ``p`` (the last four kept here, not in the library's store:
         the store's if it has them, else built)."""
         p = float(p)
-        if p not in self._dyn:
-            if len(self._dyn) >= 4:
-                self._dyn.pop(next(iter(self._dyn)))
+        with self._lock:
+            hit = self._dyn.get(p)
+        if hit is None:  # built outside the lock: another thread's value goes on meanwhile
             s = _setup_at(self.setup, self.parameter, p)
-            self._dyn[p] = (s, s.dynamics(keep=False))
-        return self._dyn[p]
+            hit = (s, s.dynamics(keep=False))
+            with self._lock:
+                while len(self._dyn) >= 4:
+                    self._dyn.pop(next(iter(self._dyn)))
+                self._dyn[p] = hit
+        return hit
 
     def __call__(self, x, p=None, jacobian=False):
         s, dyn = self.dynamics(self.setup_value() if p is None else p)
@@ -122,6 +132,13 @@ class LinkagePeriodMap:
 
     def setup_value(self) -> float:
         return _check_parameter(self.setup, self.parameter)
+
+    def __getstate__(self) -> dict:  # a lock is not pickled (a process pool's worker gets a new one)
+        return {k: v for k, v in self.__dict__.items() if k != "_lock"}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
 
     def state(self, st: SteadyState) -> Array:
         """The map's state of a steady period (at crank angle 0)."""
@@ -366,6 +383,7 @@ class _Doubled:
     """The twice-iterated linkage map, knowing its base (for stored periods)."""
 
     periods = 2
+    concurrent = True  # as its base
 
     def __init__(self, base: LinkagePeriodMap) -> None:
         self.base = base

@@ -18,7 +18,9 @@ whose Jacobian :math:`\begin{bmatrix}\boldsymbol\Phi - \mathbf I & \mathbf G_p\\
 branch is followed around folds.  Lengths are measured in scaled variables
 :math:`(\mathbf x / \mathbf d,\ p / p_s)` (arguments ``scale``, ``p_scale``).  The monodromy
 matrix :math:`\boldsymbol\Phi` comes from the period map (the integrator's tangent) and
-:math:`\mathbf G_p` from one forward difference in ``p``.  The corrector is a chord
+:math:`\mathbf G_p` from one forward difference in ``p`` (its period integrated in a second
+thread beside the monodromy period, where the map is ``concurrent`` and there are two cores:
+the same numbers, in the time of the longer period).  The corrector is a chord
 iteration with the Jacobian of the last converged point; the Jacobian is refreshed at the
 present iterate when an iteration reduces the residual by less than 5 (twice at most) or when
 its update, halved three times, still fails to integrate a period or multiplies the residual
@@ -89,6 +91,8 @@ orbit (shot), no periodic motion of period 1 or 2 within the march, or a diverge
 from __future__ import annotations
 
 import math
+import os
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -312,6 +316,7 @@ def iterated_map(period_map: PeriodMap, k: int = 2) -> PeriodMap:
         return x, Phi
 
     f.periods = int(k) * getattr(period_map, "periods", 1)  # type: ignore[attr-defined]
+    f.concurrent = bool(getattr(period_map, "concurrent", False))  # type: ignore[attr-defined]
     return f
 
 
@@ -320,6 +325,7 @@ class _Problem:
 
     def __init__(self, period_map, D, ps, dp):
         self.f, self.D, self.ps, self.dp = period_map, D, ps, dp
+        self.concurrent = bool(getattr(period_map, "concurrent", False)) and _cores() > 1
         self.stats = {"periods": 0, "monodromies": 0, "newton": 0, "rejected": 0,
                       "by purpose": {k: {"periods": 0, "monodromies": 0, "newton": 0} for k in _PURPOSES}}
         self.purpose = "start"
@@ -345,16 +351,54 @@ class _Problem:
         return (self.f(x, p, False)[0] - x) / self.D
 
     def jac(self, y):
-        """Scaled [Phi - I, G_p] at y, the scaled G there, and Phi (unscaled)."""
+        """Scaled [Phi - I, G_p] at y, the scaled G there, and Phi (unscaled).
+
+        The period at ``p + dp`` of the forward difference runs in a second thread beside the
+        monodromy period when the map allows it (``concurrent``) and the process has two cores;
+        the numbers and the counts are those of the serial order (the difference's period is
+        counted only if the monodromy's succeeded, as when it follows it)."""
         x, p = self.D * y[:-1], self.ps * y[-1]
-        self.count(1, 1)  # (counted before: a period that fails is work done too)
-        xT, Phi = monodromy(self.f, x, p, self.D)
-        g = (xT - x) / self.D
         h = self.dp * max(1.0, abs(y[-1]))
+        self.count(1, 1)  # (counted before: a period that fails is work done too)
+        (xT, Phi), xh = _beside(lambda: monodromy(self.f, x, p, self.D),
+                                lambda: self.f(x, p + self.ps * h, False)[0], self.concurrent)
+        g = (xT - x) / self.D
         self.count(1)
-        gp = ((self.f(x, p + self.ps * h, False)[0] - x) / self.D - g) / h
+        gp = ((xh - x) / self.D - g) / h
         A = (Phi / self.D[:, None]) * self.D[None, :] - np.eye(x.size)
         return np.hstack([A, gp[:, None]]), g, Phi
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _beside(first, second, concurrent: bool):
+    """``(first(), second())``; with ``concurrent``, ``second`` runs in another thread while
+    ``first`` runs in this one, and both have ended on return.  An error of ``first`` is raised
+    before one of ``second`` (the serial order's)."""
+    if not concurrent:
+        return first(), second()
+    out: dict = {}
+
+    def run():
+        try:
+            out["value"] = second()
+        except BaseException as exc:  # noqa: BLE001 (raised in this thread below)
+            out["error"] = exc
+
+    worker = threading.Thread(target=run, name="fivebar-dp", daemon=True)
+    worker.start()
+    try:
+        a = first()
+    finally:
+        worker.join()
+    if "error" in out:
+        raise out["error"]
+    return a, out["value"]
 
 
 def _tangent(J: Array, prev: Array | None) -> Array:

@@ -80,6 +80,11 @@ class PeriodMap(Protocol):
     not asked for or when the integrator gives no tangent.  A failed integration raises a
     :class:`~fivebar.errors.FivebarError` (for example
     :class:`~fivebar.newmark.NewtonConvergenceError`).
+
+    Optional attributes: ``periods`` (forcing periods per application, 1 if absent) and
+    ``concurrent`` (True if calls at two different ``p`` may run at once in two threads; then
+    :func:`fivebar.continuation.continuation` integrates its forward difference in ``p`` beside
+    the monodromy period, on a second core; absent: one call at a time).
     """
 
     def __call__(self, x: Array, p: float | None, jacobian: bool) -> tuple[Array, Array | None]: ...
