@@ -199,3 +199,39 @@ def test_the_kernels_heal_a_truncated_cache(tmp_path):
     assert out["u"] == ref["u"]
     healed = [m for c, m in out["warnings"] if c == "CacheHealedWarning"]
     assert len(healed) == 1 and "_kernels.march" in healed[0], out["warnings"]
+
+
+TINY_SIGNED = TINY + textwrap.dedent("""
+    __jit_signatures__ = {"f": ["float64(float64)"], "inner": ["float64(float64)"]}
+""")
+
+TWO_THREADS = textwrap.dedent("""
+    import sys, threading
+    sys.path[:0] = [sys.argv[1], sys.argv[2]]
+    from fivebar._jitcache import import_cached
+    go, out = threading.Barrier(4), []
+    def first_use():
+        go.wait()
+        try:
+            out.append(import_cached("tiny").f(1.5))
+        except Exception as exc:
+            out.append(repr(exc))
+    threads = [threading.Thread(target=first_use) for _ in range(4)]
+    [t.start() for t in threads]
+    [t.join() for t in threads]
+    print(out)
+""")
+
+
+def test_a_first_use_in_several_threads_at_once_compiles_once(tmp_path):
+    # the continuation's second thread, or a thread pool, can be where the kernels are used
+    # first: a thread that found the signatures half loaded by another used to raise
+    # "compilation disabled" (planted: without the import lock, 3 of 4 threads raised so)
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "tiny.py").write_text(TINY_SIGNED)
+    for run in ("compiles", "loads the cache"):
+        r = subprocess.run([sys.executable, "-c", TWO_THREADS, str(src), LIB], capture_output=True,
+                           text=True, env=_env(tmp_path), timeout=300)
+        assert r.returncode == 0, r.stderr
+        assert r.stdout.strip() == "[4.0, 4.0, 4.0, 4.0]", (run, r.stdout)

@@ -33,6 +33,7 @@ import importlib
 import os
 import shutil
 import tempfile
+import threading
 import warnings
 from types import ModuleType
 
@@ -161,8 +162,18 @@ def import_cached(name: str) -> ModuleType:
     then compiled (or loaded from the cache) and those functions compile nothing else: an
     explicit signature is what keeps the type of a first-class function argument the same
     from one process to the next (a function typed by the dispatcher it was given would be
-    compiled again in every process).  Importing again returns the module as it is.
+    compiled again in every process).  Importing again returns the module as it is.  One
+    thread at a time (a second waits for the first's compilation, then finds it done).
     """
+    with _IMPORT_LOCK:
+        return _import_cached(name)
+
+
+#: import_cached runs in one thread at a time (a process's first periods may start in two)
+_IMPORT_LOCK = threading.RLock()
+
+
+def _import_cached(name: str) -> ModuleType:
     user = config.CACHE_LOCATOR_CLASSES
     # numba picks a location per function when the module is imported and again when the
     # cache is replaced below: give it ours (or the user's, with the temporary one last)
