@@ -19,9 +19,15 @@ JSON object (and writes it with ``--out``):
   <model>.after                  at a speed just past the first period doubling (if any):
                                  ``describe_speed``'s sentence
   load                           os.getloadavg() at start and end (the machine is shared)
+  cores                          the cores this process may run on
+
+With ``--threads 2,1`` each model runs twice, with the forward difference's period in p
+beside the monodromy period on a second core (the library's default where there are two) and
+one after the other, as "<model>, 2 thread(s)" and "<model>, 1 thread(s)": the same branch to
+the bit (the counts say so), so the ratio of the times is the second core's gain.
 
 Usage: python benchmarks/bench_continuation.py [--out benchmarks/results/continuation.json]
-       [--steps S] [--points 200] [--models linear,nonlinear]
+       [--steps S] [--points 200] [--models linear,nonlinear] [--threads 2,1]
 """
 
 from __future__ import annotations
@@ -92,13 +98,22 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=None, help="S (default: the parameter file's)")
     ap.add_argument("--points", type=int, default=200)
     ap.add_argument("--models", default="linear,nonlinear")
+    ap.add_argument("--threads", default="2", help="comma-separated: 2 (the forward difference's period "
+                    "beside the monodromy's where there are two cores, the library's default), 1 (one "
+                    "after the other); each model is run with each, in this process")
     a = ap.parse_args()
-    res = {"python": platform.python_version(), "load": {"start": list(os.getloadavg())}}
+    res = {"python": platform.python_version(), "cores": len(os.sched_getaffinity(0)),
+           "load": {"start": list(os.getloadavg())}}
     import fivebar  # noqa: F401  (the import and the numba cache load are not timed)
     from fivebar import steady_state
+    from fivebar.branches import LinkagePeriodMap
     steady_state(fivebar.Setup(fivebar.load_params(), motors=False))  # warm the compiled kernels
+    threads = [int(t) for t in a.threads.split(",")]
     for model in a.models.split(","):
-        res[model] = run(model, a.steps, a.points)
+        for t in threads:
+            LinkagePeriodMap.concurrent = t > 1  # the map's permission (the library's default: True)
+            res[model if t == 2 and len(threads) == 1 else f"{model}, {t} thread(s)"] = run(model, a.steps, a.points)
+    LinkagePeriodMap.concurrent = True
     res["load"]["end"] = list(os.getloadavg())
     text = json.dumps(res, indent=1)
     print(text)
