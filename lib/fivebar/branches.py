@@ -383,11 +383,11 @@ class _Doubled:
     """The twice-iterated linkage map, knowing its base (for stored periods)."""
 
     periods = 2
-    concurrent = True  # as its base
 
     def __init__(self, base: LinkagePeriodMap) -> None:
         self.base = base
         self._f = iterated_map(base, 2)
+        self.concurrent = self._f.concurrent  # as its base
 
     def __call__(self, x, p=None, jacobian=False):
         return self._f(x, p, jacobian)

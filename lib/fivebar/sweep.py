@@ -305,6 +305,12 @@ def speed_sweep(
         else:
             todo.append(s)
     futures: dict = {}
+
+    def keep(s, row):  # a finished point: its row, and its entry in the store
+        results[s] = row
+        if cache:
+            STORE.put(key(s), row)
+
     try:
         with _Signals().installed() as signals, \
                 tqdm(total=len(todo), disable=not progress, desc="crank speeds", unit="speed") as bar:
@@ -312,9 +318,7 @@ def speed_sweep(
                 for s in todo:
                     row = sweep_point(base.replace(crank_speed_rpm=s), *point)
                     with signals.held():
-                        results[s] = row
-                        if cache:
-                            STORE.put(key(s), row)
+                        keep(s, row)
                     bar.update()
             else:
                 futures = {executor.submit(sweep_point, base.replace(crank_speed_rpm=s), *point): s for s in todo}
@@ -322,18 +326,14 @@ def speed_sweep(
                     s = futures[fut]
                     row = fut.result()
                     with signals.held():
-                        results[s] = row
-                        if cache:
-                            STORE.put(key(s), row)
+                        keep(s, row)
                     bar.update()
     except KeyboardInterrupt as exc:
         if executor is not None:
             _stop_executor(executor, futures)
             for fut, s in futures.items():  # points that finished while stopping
                 if s not in results and fut.done() and not fut.cancelled() and fut.exception() is None:
-                    results[s] = fut.result()
-                    if cache:
-                        STORE.put(key(s), results[s])
+                    keep(s, fut.result())
         signum = signal.SIGTERM if isinstance(exc, _Terminated) else signal.SIGINT
         done = [results[s] for s in x.tolist() if s in results]
         raise SweepInterrupted(
