@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike, NDArray
 
 from .errors import FivebarError
 from .params import Params
@@ -100,7 +101,8 @@ def assumption_effects(
     ``df = assumption_effects(setup)``: one row for the problem ("(defaults)") and one per
     variant that differs from it (a variant whose changes are the values already chosen is
     left out), with the change of the L2 and L3 transverse peak-to-peak deflection from the
-    first row (%).  The steady states come from :func:`fivebar.steady.steady_state` of the
+    first row (%), 0 where it is below what the steady states resolve (1e-6 %: round-off
+    of a variant that cannot move the linkage).  The steady states come from :func:`fivebar.steady.steady_state` of the
     problem (a :class:`fivebar.setup.Setup`, or a Params: ``Setup(params)``, the geometric
     nonlinearity and the library's default step and scheme, converged for any sensible
     parameters; the paper's S = 100 and rule fail where the deflections are large, and the
@@ -126,8 +128,25 @@ def assumption_effects(
     df = pd.DataFrame(rows)
     for link in ("L2", "L3"):
         col = f"{link} transverse p-p (um)"
-        df[f"{link} change (%)"] = 100.0 * (df[col] / base[col] - 1.0)
+        df[f"{link} change (%)"] = _change_percent(df[col].to_numpy(), base[col])
     return df
+
+
+#: the smallest change (%) the steady states resolve: shooting converges the state to 1e-10
+#: (relative), and a variant that cannot move the linkage (the electromagnetic assumptions act
+#: on the rotors only) still changes the deflections by round-off, about 1e-11 %, with a sign
+#: and size that depend on which speed first sampled the set-up in the process
+_RESOLVED_CHANGE_PERCENT = 1e-6
+
+
+def _change_percent(values: ArrayLike, base: float) -> NDArray:
+    """``100 (values / base - 1)``, with the changes below :data:`_RESOLVED_CHANGE_PERCENT` set to 0.
+
+    >>> _change_percent([1.0 - 1.7e-13, 1.01, 0.99999], 1.0).round(6).tolist()
+    [0.0, 1.0, -0.001]
+    """
+    c = 100.0 * (np.asarray(values, float) / base - 1.0)
+    return np.where(np.abs(c) < _RESOLVED_CHANGE_PERCENT, 0.0, c)
 
 
 @analysis

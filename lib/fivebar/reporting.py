@@ -200,26 +200,10 @@ def _figure6_effects(params: Params) -> dict[str, str]:
     out: dict[str, list[str]] = {}
     for r in eff.to_dict("records"):
         out.setdefault(r["assumption"], []).append(
-            f"{r['alternative']}: L2 {_change(r['L2 change (%)'])} %, L3 {_change(r['L3 change (%)'])} %"
+            f"{r['alternative']}: L2 {r['L2 change (%)']:+.3g} %, L3 {r['L3 change (%)']:+.3g} %"
         )
     return {k: "; ".join(v) for k, v in out.items()}
 
-
-#: changes (%) smaller than this are below what the steady states resolve (shooting converges
-#: the state to 1e-10 relative), so they are written as +0: a variant that cannot move the
-#: linkage otherwise reads "-1.7e-11 %" on one machine and "+0 %" on another
-_RESOLVED_PERCENT = 1e-6
-
-
-def _change(percent: float) -> str:
-    """A change (%) to 3 significant digits, +0 below what the steady states resolve.
-
-    >>> _change(12.345), _change(-1.7e-11), _change(0.0), _change(float("nan"))
-    ('+12.3', '+0', '+0', '+nan')
-    """
-    if abs(percent) < _RESOLVED_PERCENT:
-        percent = 0.0
-    return f"{percent:+.3g}"
 
 
 def format_value(value: Any) -> str:
