@@ -205,7 +205,6 @@ def _figure6_effects(params: Params) -> dict[str, str]:
     return {k: "; ".join(v) for k, v in out.items()}
 
 
-
 def format_value(value: Any) -> str:
     """A table cell as text: numbers to 4 significant digits, text unchanged.
 
