@@ -454,3 +454,41 @@ def test_a_failed_extrapolation_falls_back_to_a_n(monkeypatch):
     monkeypatch.setattr(k, "predict", poisoned)
     res = integrate(*args, rtol=1e-12)
     assert np.array_equal(res.u, ref.u) and np.array_equal(res.iterations, ref.iterations)
+
+
+class _StiffCubic(System):
+    """u'' + k u + k3 u^3 = 0, stiff (omega dt = 10 at dt = 0.01) and hardening, its compiled
+    force for the compiled loop."""
+
+    def __init__(self, k, k3):
+        self.k3 = np.array([k3])
+        super().__init__(np.eye(1), np.zeros((1, 1)), np.array([[k]]), force=lambda t: np.zeros(1),
+                         nonlinear=lambda u: (self.k3 * u**3, np.diag(3 * self.k3 * u**2)))
+
+    def compiled_nonlinear(self, step_data):
+        return _CUBIC, self.k3.copy(), np.zeros(1, np.int64)
+
+
+@pytest.mark.parametrize("scheme", [Newmark(), GeneralizedAlpha(0.8)], ids=["newmark", "galpha"])
+def test_a_start_far_from_equilibrium_in_a_stiff_hardening_spring_is_integrated(scheme, monkeypatch):
+    """A state far out of equilibrium in a stiff direction (as a shooting or continuation trial
+    state can be, in the axial directions of the links) has an initial acceleration of 2e8: the
+    predictor of the first step then lies near u = -1e4, from where Newton's iteration on the
+    cubic force crawls back by a third per iteration and does not converge in max_iter = 20.
+    The step is then taken from u_n (a fallback after the extrapolated iterate and a_n):
+    both loops integrate the march, agree to round-off, and equal the march whose every step
+    starts from u_n (the step's equation has one root: the same discrete solution).  Without
+    the u_n start both loops raise NewtonConvergenceError in step 1 (seen, planted)."""
+    sysm = _StiffCubic(1e8, 1e8)
+    S = 40
+    sd = PeriodicStepData.from_system(sysm, 0.0, 0.4, S)
+    kw = dict(step_data=sd, newton="full", rtol=1e-12)
+    args = (sysm, [1.0], [0.0], 0.0, sd.dt, S, scheme)
+    compiled = integrate(*args, **kw)
+    monkeypatch.setattr(nm, "_USE_KERNELS", False)
+    python = integrate(*args, **kw)
+    assert np.abs(compiled.u - python.u).max() <= 1e-12 * np.abs(python.u).max()
+    monkeypatch.setattr(nm._kernels(), "guess_order", lambda j: -1)
+    from_u_n = integrate(*args, **kw)
+    assert np.abs(python.u - from_u_n.u).max() <= 1e-9 * np.abs(from_u_n.u).max()
+    assert np.all(np.abs(python.u) <= 1.0 + 1e-9)  # no spurious growth: the energy is bounded by the start's

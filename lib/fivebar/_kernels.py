@@ -240,7 +240,8 @@ def predict(c, Mb, x, w, order=0):
     """Predictors (4.3), (4.2) without the new acceleration, into ``w[UT]``, ``w[VT]``; the
     first iterate ``u_{n+1} = u~ + beta dt^2 a*`` into ``w[U1]``, with the acceleration ``a*``
     extrapolated from ``order`` + 1 steps (0: ``a_n``; 1: ``2 a_n - a_{n-1}``; 2: ``3 a_n -
-    3 a_{n-1} + a_{n-2}``, from ``w[AP1]``, ``w[AP2]``, which :func:`finish` keeps); the alpha
+    3 a_{n-1} + a_{n-2}``, from ``w[AP1]``, ``w[AP2]``, which :func:`finish` keeps; ``order``
+    -1: the first iterate is ``u_n`` itself, whatever the acceleration); the alpha
     history ``alpha_m Mb a_n + alpha_f g_n`` into ``w[HIST]`` (for Newmark it stays as it is
     made: zero).  The first iterate only starts Newton's iteration of a nonlinear step (a
     linear step solves from it exactly, and takes ``order`` 0)."""
@@ -258,7 +259,7 @@ def predict(c, Mb, x, w, order=0):
             ag = 2.0 * a[i] - ap1[i]
         else:
             ag = a[i]
-        u1[i] = ut[i] + bdt2 * ag
+        u1[i] = ut[i] + bdt2 * ag if order >= 0 else u[i]
     if is_alpha(c):
         Ma = w[MA]
         matvec(Mb, a, Ma)
@@ -539,17 +540,20 @@ def march(Ms, Cs, Ks, Fs, k0, c, x, nsteps, t0, force, rdata, idata, nonlin, Ktp
             LU = LUc[li]
             LP = pivc[li]
         else:
-            # Newton from the acceleration extrapolated over the steps before, and from a_n
-            # if that fails (a start that excites the stiff modes makes the history rough)
+            # Newton from the acceleration extrapolated over the steps before, from a_n if that
+            # fails (a start that excites the stiff modes makes the history rough), and from
+            # u_n if that fails too: a state slightly out of equilibrium in a stiff direction
+            # (a corrector's trial state) has an initial acceleration that puts the predictor
+            # far out, where a hardening force's Newton iteration crawls back or diverges
             order = guess_order(j)
             while True:
                 predict(c, Mb, x, w, order)
                 status, k_it, fresh = newton(c, Mb, C, K, F, fnl, Kt, w, force, kk, rdata, idata,
                                              tol, max_iter, full, sens, LUc, pivc, have, li, St,
                                              piv, info, j, t)
-                if status == OK or status == SINGULAR or order == 0:
+                if status == OK or status == SINGULAR or order < 0:
                     break
-                order = 0
+                order = 0 if order > 0 else -1
             if status != OK:
                 return status
             iters[j - 1] = k_it

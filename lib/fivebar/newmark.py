@@ -550,14 +550,14 @@ def _march_python(kern, c, x, P, data, nl, t0, nsteps, k0, M_const, refactor, Kt
                 raise fail(kern.SINGULAR, j, t, dmin=dmin, dmax=dmax)
             LU, LP = LUc[li], pivc[li]
         else:
-            order = kern.guess_order(j)  # as the compiled loop: extrapolated, then from a_n
+            order = kern.guess_order(j)  # as the compiled loop: extrapolated, from a_n, from u_n
             while True:
                 kern.predict(c, Mb, x, w, order)
                 status, k_it, what = _newton_python(kern, c, Mb, C, K, F, fnl, Kt, w, nl, t, n, tol,
                                                     max_iter, full, LUc, pivc, have, li, St, piv)
-                if status in (kern.OK, kern.SINGULAR) or order == 0:
+                if status in (kern.OK, kern.SINGULAR) or order < 0:
                     break
-                order = 0
+                order = 0 if order > 0 else -1
             if status != kern.OK:
                 raise fail(status, j, t, **what)
             iters[j - 1] = k_it
