@@ -307,7 +307,7 @@ def test_the_stats_account_for_every_map_application_by_purpose():
     assert br.stop.startswith("p_end")
     assert max(np.abs(q.x - xs(q.p)).max() for q in br.points) < 1e-8  # on the closed-form branch
     s, by = br.stats, br.stats["by purpose"]
-    assert set(by) == {"start", "corrector", "rejected", "multipliers", "locate"}
+    assert set(by) == {"start", "corrector", "rejected", "multipliers", "locate", "recovery"}
     # every map application, monodromy and corrector iteration is charged to one purpose
     for k in ("periods", "monodromies", "newton"):
         assert sum(c[k] for c in by.values()) == s[k]
@@ -501,3 +501,56 @@ def test_beside_raises_the_first_error_and_waits_for_both():
         _beside(lambda: 1, fail("second"), True)
     with pytest.raises(FivebarError, match="first"):  # both fail: the serial order's error
         _beside(fail("first"), fail("second"), True)
+
+
+def test_a_branch_with_sharp_folds_is_the_same_from_either_end_and_under_perturbations():
+    """The answer of a continuation is a property of the problem, not of round-off or of the
+    first step: the forced Duffing oscillator whose response curve has a fold pair, with the
+    state weighted lightly in the arclength (scale 300: the folds turn within a small arclength,
+    as the linkage's folds do with ``follow``'s state_weight), followed from below, from the
+    middle of the fold interval and from above, each with the first step scaled by 0.75, 1 and
+    1.25 and the start perturbed by 1e-10: every run reaches p_end, and locates the same two
+    folds, within 1e-6, at the DOP853 fold condition's frequencies (less the trapezoidal rule's
+    period error).  Before the tangent's orientation followed det([J; t]) the run from 2.0
+    with the unscaled first step jumped across the lower fold onto the resonant branch, turned
+    back there and left the range through 3.26 (folds reported: 1.3293, 1.3293, 2.6563)."""
+    zeta, alpha, F, S = 0.02, 1.0, 0.3, 100
+    f = _duffing(zeta, alpha, F, S)
+    found = []
+    for p0, p1 in ((0.8, 3.0), (2.0, 0.8), (3.0, 0.8)):
+        for factor in ((0.75, 1.0, 1.25) if p0 == 2.0 else (1.0,)):
+            for pert in ((0.0, 1e-10) if p0 == 2.0 else (0.0,)):
+                br = continuation(f, np.zeros(2) + pert, p0, p1, ds=0.02 * factor, ds_max=0.2, ds_min=1e-7,
+                                  scale=np.full(2, 300.0), p_scale=abs(p1 - p0), max_points=400)
+                assert br.stop == f"p_end = {p1:g} reached", (p0, factor, pert, br.stop)
+                folds = sorted(b.p for b in br.bifurcations if b.kind == "fold")
+                assert len(folds) == 2 and len(br.bifurcations) == 2, (p0, factor, pert, folds)
+                found.append(folds)
+                if (p0, factor, pert) == (0.8, 1.0, 0.0):
+                    refs = sorted(_duffing_fold_reference(zeta, alpha, F, np.r_[b.x, b.p])[2]
+                                  for b in br.bifurcations)
+    found = np.array(found)
+    assert np.ptp(found, axis=0).max() < 1e-6, found
+    period_error = (2 * math.pi / S) ** 2 / 12
+    assert np.abs(found[0] * (1 + period_error) - refs).max() < 2e-5 * max(refs)
+
+
+def test_a_corrector_that_cannot_converge_in_its_budget_is_recovered_by_newton():
+    """With ``max_newton = 1`` the chord corrector never converges (it needs two iterations or
+    more), so every step is halved down to ``ds_min``; the recovery (Newton's method with a
+    fresh Jacobian at each iterate, more iterations) makes the step, each recovered point says
+    so, and the branch and its folds are those of an ordinary run.  Without the recovery the
+    continuation stops at its first point."""
+    f = _duffing(0.05, 1.0, 0.1, 100)
+    ref = continuation(f, np.zeros(2), 0.8, 1.6, ds=0.05, ds_max=0.1)
+    br = continuation(f, np.zeros(2), 0.8, 1.6, ds=0.05, ds_max=0.1, ds_min=0.02, max_newton=1)
+    assert br.stop == "p_end = 1.6 reached" and ref.stop == br.stop
+    kinds = {q.recovery for q in br.points[1:]}
+    assert kinds == {"full Newton"} and len(br.stats["recoveries"]) == len(br.points) - 1
+    assert br.stats["by purpose"]["recovery"]["periods"] > 0
+    a = sorted(b.p for b in ref.bifurcations)
+    b = sorted(b.p for b in br.bifurcations)
+    assert len(a) == len(b) == 2 and np.abs(np.subtract(a, b)).max() < 1e-5
+    # every point on the branch: a period from it returns to it
+    for q in br.points[::10]:
+        assert np.abs(f(q.x, q.p)[0] - q.x).max() < 1e-8

@@ -33,7 +33,19 @@ a converged step the next is scaled by :math:`\sqrt{0.1\,\Delta s/\delta}`, :mat
 corrected point from the predictor (about :math:`\kappa\Delta s^2/2` on a curve of curvature
 :math:`\kappa`: the tangent then turns by about 0.2 rad per step), the factor kept within
 0.5 and 2 (at most 1 after more than ``max_newton // 2 + 1`` iterations), the step within
-``ds_max``.
+``ds_max``.  The new tangent is oriented by the sign of
+:math:`\det[\mathbf J;\ \boldsymbol\tau^\top]`, which a branch of regular points keeps (folds included), and a step
+whose tangent turns by more than 60 degrees is halved too: with the state weighted lightly in
+the arclength a fold turns within a small arclength, and a long step can jump across it onto
+the branch's further course, where orienting along the last tangent would send the
+continuation back the way it came.
+
+**Recovery.**  Where the step has been halved below ``ds_min``, the continuation does not stop
+at once: from the last point it tries, in order, Newton's method with a fresh Jacobian at every
+iterate and three times the iterations, the predictor along the secant through the last two
+points, and a step in the parameter alone with the state corrected at that parameter (each at
+4 and 1 times ``ds_min``); a point so reached says which (:attr:`BranchPoint.recovery`, and
+``Branch.stats["recoveries"]``).  Only when all fail does it raise :class:`ContinuationError`.
 
 **Bifurcations** (the codimension-one ones of a fixed point of a map; Kuznetsov,
 *Elements of Applied Bifurcation Theory*, 3rd ed., ch. 4-5; the test functions follow the
@@ -71,8 +83,13 @@ also a fixed-point set of :math:`\mathbf P^2`, is excluded), and continues from 
 
 **Reproducibility.**  The step control takes discrete decisions (accept, halve, grow) on
 quantities computed to rounding error, so a change of rounding changes the path (the points,
-their count, the last parameter reached within a budget of points), though not what is
-located on it (folds and bifurcations, to their tolerance).  Threaded BLAS rounds differently
+their count), though not what is located on it (folds and bifurcations, to their tolerance)
+nor where it stops: the orientation by the determinant, the limit on the tangent's turn and
+the recovery make the branch followed a property of the problem.  Chapter 13's branch
+(150-240 r/min, four folds) gave the same stop and folds, to 0.001 r/min, with three OpenBLAS
+kernels, one BLAS thread, numba's generic target, a start perturbed by 1e-10 and the first
+step scaled by 0.75 and 1.25; before, one kernel stopped at its second fold and another turned
+back there onto the branch already followed.  Threaded BLAS rounds differently
 with the number of threads; :func:`continuation` and :func:`switch_period_doubling` therefore
 run with one BLAS thread (threadpoolctl; the matrices of a period map are small, for which
 one thread is also the faster), so the path does not depend on ``OPENBLAS_NUM_THREADS`` or the
@@ -117,7 +134,14 @@ Array = NDArray[np.float64]
 
 _KINDS = ("fold", "period doubling", "Neimark-Sacker")
 # what the map applications of a continuation are spent on (``Branch.stats["by purpose"]``)
-_PURPOSES = ("start", "corrector", "rejected", "multipliers", "locate")
+_PURPOSES = ("start", "corrector", "rejected", "multipliers", "locate", "recovery")
+#: A step is accepted only if the branch's tangent turns by less than this (60 degrees) from the
+#: last point to the new one: a larger turn means the step jumped across a sharp fold (or onto
+#: another part of the branch), and the located bifurcations between the two would be guesses.
+_MAX_TURN_COS = 0.5
+#: What :func:`continuation` tries, in this order, from the last point when the step has been
+#: halved below ``ds_min`` (:func:`_recover`).
+_RECOVERIES = ("full Newton", "secant predictor", "natural parameter")
 
 
 class ContinuationError(ComputationError):
@@ -148,6 +172,9 @@ class BranchPoint:
         Corrector iterations that reached it.
     residual : float
         Scaled periodicity residual ``||G / scale||``.
+    recovery : str
+        How the step that reached it was made when the ordinary step failed down to
+        ``ds_min`` (one of :data:`_RECOVERIES`; "" for an ordinary step).
     """
 
     x: Array
@@ -157,6 +184,7 @@ class BranchPoint:
     step: float = 0.0
     newton: int = 0
     residual: float = 0.0
+    recovery: str = ""
 
     @property
     def stable(self) -> bool:
@@ -329,6 +357,7 @@ class _Problem:
         self.stats = {"periods": 0, "monodromies": 0, "newton": 0, "rejected": 0,
                       "by purpose": {k: {"periods": 0, "monodromies": 0, "newton": 0} for k in _PURPOSES}}
         self.purpose = "start"
+        self.orientation = 1.0
 
     def count(self, periods: int = 0, monodromies: int = 0, newton: int = 0) -> None:
         """Charge map applications (monodromy matrices among them) and corrector iterations to
@@ -418,6 +447,16 @@ def _tangent(J: Array, prev: Array | None) -> Array:
     if prev is not None and t @ prev < 0:
         t = -t
     return t
+
+
+def _orientation(J: Array, t: Array) -> float:
+    """The sign of ``det([J; t^T])``: it keeps its sign along a branch of regular points (folds
+    included) when the tangent keeps its orientation, and changes it where the tangent turns
+    back.  A step that jumps across a sharp fold onto the branch's further course lands where
+    the previous tangent points back along the branch; the sign tells the true direction (Allgower
+    and Georg, *Introduction to Numerical Continuation Methods*, 2003, sec. 2.1)."""
+    sign, _ = np.linalg.slogdet(np.vstack([J, t]))
+    return float(sign)
 
 
 def _tests(mu: NDArray[np.complex128], tangent: Array) -> dict[str, float]:
@@ -543,6 +582,7 @@ def continuation(
         t = _tangent(J, np.r_[np.zeros(x0.size), sgn])
     else:
         t = _tangent(J, np.asarray(tangent, float))
+    prob.orientation = _orientation(J, t)  # the branch's sign of det([J; t^T]) (see _step)
     pts = [BranchPoint(x0.copy(), float(p0), floquet_multipliers(Phi), t, 0.0, 0,
                        float(np.linalg.norm(g)))]
     bifs: list[Bifurcation] = []
@@ -550,8 +590,11 @@ def continuation(
     Jc = J  # the chord Jacobian (of the last converged point)
     h = float(ds)
     stop = f"max_points = {max_points} reached"
+    recoveries: list[tuple[float, str]] = []
+    prob.stats["recoveries"] = recoveries
     while len(pts) < max_points:
         yk, tk = y, t
+        recovery = ""
         while True:
             prob.purpose = "corrector"
             before = dict(prob.stats["by purpose"]["corrector"])
@@ -559,33 +602,31 @@ def continuation(
             yp = yk + h * tk
             if (yp[-1] * p_scale - p_end) * sgn > 0 and (yk[-1] * p_scale - p_end) * sgn < 0 and tk[-1] * sgn > 0:
                 target = p_end / p_scale  # the last point: on p = p_end
-            res = _correct(prob, yk, tk, h, Jc, tol, max_newton, target)
-            if res is not None:
-                dist = float(np.linalg.norm(res[0] - yp))
-                if target is not None or dist <= 0.5 * h:
-                    jac_before = dict(prob.stats["by purpose"]["corrector"])
-                    try:  # the Jacobian at the new point: its multipliers and tangent
-                        J1, g1, Phi1 = prob.jac(res[0])
-                        prob.move(jac_before, "corrector", "multipliers")
-                        break
-                    except FivebarError:  # a period from it (or at p + dp) fails: rejected too
-                        pass
-                res = None  # the corrector went far from the predictor (the curve turns too fast)
+            got = _step(prob, yk, tk, h, Jc, tol, max_newton, target)
+            if got is not None:
+                break
             prob.stats["rejected"] += 1
             prob.move(before, "corrector", "rejected")
             h *= 0.5
             if h < ds_min:
-                err = ContinuationError(
-                    f"continuation: the step fell below ds_min = {ds_min:g} at p = {yk[-1] * p_scale:.8g} "
-                    f"after {len(pts)} points (the corrector did not converge in {max_newton} iterations, "
-                    "or a period of the map failed)")
-                err.branch = Branch(pts, bifs, periods, D, float(p_scale), prob.stats, str(err), discarded)
-                raise err
+                prob.purpose = "recovery"
+                got, recovery, h, target = _recover(prob, pts, yk, tk, ds_min, Jc, tol, max_newton, D, p_scale,
+                                                    (p_end / p_scale, sgn))
+                if got is None:
+                    err = ContinuationError(
+                        f"continuation: the step fell below ds_min = {ds_min:g} at p = {yk[-1] * p_scale:.8g} "
+                        f"after {len(pts)} points (the corrector did not converge in {max_newton} iterations, "
+                        f"or a period of the map failed), and no recovery ({', '.join(_RECOVERIES)}) made a step")
+                    err.branch = Branch(pts, bifs, periods, D, float(p_scale), prob.stats, str(err), discarded)
+                    raise err
+                recoveries.append((float(yk[-1] * p_scale), recovery))
+                break
+        res, dist, (J1, g1, Phi1), t1 = got
         y1, it = res
-        t1 = _tangent(J1, tk)
         mu1 = floquet_multipliers(Phi1)
         step = float(tk @ (y1 - yk))
-        q = BranchPoint(D * y1[:-1], float(y1[-1] * p_scale), mu1, t1, step, it, float(np.linalg.norm(g1)))
+        q = BranchPoint(D * y1[:-1], float(y1[-1] * p_scale), mu1, t1, step, it, float(np.linalg.norm(g1)),
+                        recovery)
         prev = pts[-1]
         pts.append(q)
         Jk, Jc = Jc, J1  # the Jacobians at the last point (the locator's chord) and at the new one
@@ -607,8 +648,74 @@ def continuation(
     return Branch(pts, bifs, periods, D, float(p_scale), prob.stats, stop, discarded)
 
 
+def _step(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: float, max_newton: int,
+          target: float | None, **kw):
+    """One step from ``yk`` along ``tk``: the corrected point, its distance from the predictor,
+    the Jacobian there and its tangent ``((y, iterations), dist, (J, g, Phi), t)``, or None if
+    the step is rejected: the corrector fails (:func:`_correct`), it ends farther than half the
+    step from the predictor, the Jacobian cannot be made at the new point (a period from it, or
+    at ``p + dp``, fails), or the tangent turns by more than 60 degrees (:data:`_MAX_TURN_COS`).
+    The new tangent is oriented along the secant from ``yk`` to the new point, not along ``tk``:
+    a step that passes a sharp fold then goes on beyond it instead of turning back."""
+    res = _correct(prob, yk, tk, h, Jc, tol, max_newton, target, **kw)
+    if res is None:
+        return None
+    yp = yk + h * tk
+    dist = float(np.linalg.norm(res[0] - yp))
+    if target is None and dist > 0.5 * h:
+        return None  # the corrector went far from the predictor (the curve turns too fast)
+    before = dict(prob.stats["by purpose"][prob.purpose])
+    try:  # the Jacobian at the new point: its multipliers and tangent
+        J1, g1, Phi1 = prob.jac(res[0])
+    except FivebarError:  # a period from it (or at p + dp) fails: rejected too
+        return None
+    secant = res[0] - yk
+    t1 = _tangent(J1, secant / max(float(np.linalg.norm(secant)), 1e-300))
+    if _orientation(J1, t1) != prob.orientation:
+        t1 = -t1
+    if float(t1 @ tk) < _MAX_TURN_COS:
+        return None
+    prob.move(before, prob.purpose, "multipliers")
+    return res, dist, (J1, g1, Phi1), t1
+
+
+def _recover(prob: _Problem, pts: list, yk: Array, tk: Array, ds_min: float, Jc: Array, tol: float,
+             max_newton: int, D: Array, p_scale: float, end: tuple[float, float]):
+    """A step from the last point ``yk`` after the ordinary step failed down to ``ds_min``:
+    ``(step, name, h, target)`` (:func:`_step`'s result, the recovery's name, the step made and
+    the parameter it was corrected onto, ``end[0]`` when the step passed the end, the scaled
+    ``p_end``, in the direction ``end[1]``; else None) or ``(None, "", 0, None)``.  Tried in order (:data:`_RECOVERIES`), each at 4 and then 1 times
+    ``ds_min``: *full Newton*, the corrector with a fresh Jacobian at every iteration, damped,
+    and three times the iterations; *secant predictor*, the predictor and the constraint along
+    the secant through the last two points instead of the tangent (the tangent at a point
+    just past a sharp fold can lie off the branch's further course); *natural parameter*, the
+    parameter stepped by the tangent's share and the state corrected at that fixed parameter
+    (away from a fold, where the tangent's parameter component is not small)."""
+    ways = [("full Newton", tk, dict(full=True), 3 * max_newton, False)]
+    if len(pts) >= 2:
+        prev = np.r_[pts[-2].x / D, pts[-2].p / p_scale]
+        sec = yk - prev
+        if float(np.linalg.norm(sec)) > 0:
+            sec = sec / np.linalg.norm(sec)
+            if float(sec @ tk) > 0:
+                ways.append(("secant predictor", sec, dict(full=True), 3 * max_newton, False))
+    if abs(float(tk[-1])) > 0.1:
+        ways.append(("natural parameter", tk, dict(full=True), 3 * max_newton, True))
+    p_end, sgn = end
+    for name, direction, kw, iters, natural in ways:
+        for h in (4.0 * ds_min, ds_min):
+            target = float(yk[-1] + h * direction[-1]) if natural else None
+            if (yk[-1] + h * direction[-1] - p_end) * sgn > 0 > (yk[-1] - p_end) * sgn and direction[-1] * sgn > 0:
+                target = p_end  # the last point: on p = p_end
+            got = _step(prob, yk, direction, h, Jc, tol, iters, target, give_up=False, **kw)
+            if got is not None and float(got[3] @ tk) >= _MAX_TURN_COS:
+                return got, name, h, target if target == p_end else None
+    return None, "", 0.0, None
+
+
 def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: float,
-             max_newton: int, target: float | None, start: Array | None = None, give_up: bool = True):
+             max_newton: int, target: float | None, start: Array | None = None, give_up: bool = True,
+             full: bool = False):
     """Damped chord-Newton corrector from the predictor; ``(y, iterations)`` or None.
 
     An update whose period fails to integrate, or that multiplies the residual by more than
@@ -623,7 +730,8 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
     constraint.  ``start``: the first iterate (on the constraint ``tk (y - yk) = h``) instead
     of the tangent predictor ``yk + h tk``.  ``give_up``: False for a point between two points
     of the branch (the locator's trials), which is not abandoned early: there the alternative is
-    not a shorter step but a lost location."""
+    not a shorter step but a lost location.  ``full``: Newton's method, the Jacobian taken at
+    every iterate, instead of the chord iteration."""
     y = yk + h * tk if start is None else np.array(start, float)
     if target is not None:
         y[-1] = target
@@ -658,7 +766,7 @@ def _correct(prob: _Problem, yk: Array, tk: Array, h: float, Jc: Array, tol: flo
         r = np.concatenate([g, [constraint(y)]])
         rn = float(np.linalg.norm(r))
         current = False  # B is the Jacobian at this y
-        if rn > 0.2 * prev_norm and refreshed < 2:  # the chord is slow: fresh Jacobian
+        if full or (rn > 0.2 * prev_norm and refreshed < 2):  # the chord is slow: fresh Jacobian
             B = fresh(y)
             if B is None:
                 return None
@@ -748,7 +856,7 @@ def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, 
             s = s0 + (0.5, 0.25, 0.75)[failed - 1] * (s1 - s0)
         if Jc is None:
             Jc, _, _ = prob.jac(yk)
-        res = _correct(prob, yk, tk, s, Jc, tol, max_newton, None,
+        res = _correct(prob, yk, tk, s, Jc, tol, 3 * max_newton, None,
                        start=y0 + (s - s0) / (s1 - s0) * (y1 - y0), give_up=False)
         J = None
         if res is not None:
