@@ -148,6 +148,7 @@ class LinkageDynamics:
         t = np.arange(self.steps_per_period) * self.dt
         self.t = t
         self._key = None  # the sample cache's key (None: not cached)
+        self._free = None  # the speed-free parameter set whose step times the cache samples
         with _blas_threads(1):  # many small dense problems: threaded BLAS only adds overhead
             self.step_data = self._step_data(t, elements_per_link, motors, speed_free)
         # the nonlinear force's view of the configuration at the S step times (the element
@@ -166,14 +167,16 @@ class LinkageDynamics:
 
         At constant crank speed the step times k T / S meet the same crank angles at every
         speed, so M, K, the frozen modes and C do not depend on the speed, and F = -M u_r''
-        scales with its square.  The cache key is the parameter set with the speed taken out,
+        scales with its square (without gravity, which is not scaled: a set-up with gravity, an
+        external force or stiffness damping is sampled afresh).  The cache key is the parameter set with the speed taken out,
         S, the mesh and the motors (no external force P); it holds the step data at 1 rad/s
         (read-only arrays), and this object's step data is that one at the speed
         (:meth:`~fivebar.systems.PeriodicStepData.with_force`: the stored M, C, K themselves,
         checked once, and F scaled to the speed).
         """
-        if self._P is not None or self.params.damping_model == "stiffness":
-            # (stiffness damping: K holds a term linear in the speed)
+        if self._P is not None or self.params.damping_model == "stiffness" or self.params.gravity != 0.0:
+            # (stiffness damping: K holds a term linear in the speed; gravity: a part of F that
+            # does not scale with the speed)
             return PeriodicStepData(*self._sample(t), t0=0.0, period=self.period)
         p = self.params
         key = (_SAMPLES, speed_free, self.steps_per_period, elements_per_link, bool(motors))
@@ -182,18 +185,33 @@ class LinkageDynamics:
         except TypeError:  # an unhashable parameter set: no cache
             return PeriodicStepData(*self._sample(t), t0=0.0, period=self.period)
         self._key = key
+        self._free = speed_free
         W2 = p.crank_speed_rad_s ** 2
 
         def make():
-            hit = self._nested(key, t, W2)
+            hit = self._nested(key)
             if hit is None:
-                M, C, K, F = self._sample(t)
+                M, C, K, F = self._sample(self._free_times(), speed_free)
                 for X in (M, C, K):
                     X.flags.writeable = False
-                hit = (M, C, K, F / W2)
+                hit = (M, C, K, F / speed_free.crank_speed_rad_s ** 2)
             return PeriodicStepData(*hit, t0=0.0, period=2.0 * np.pi)
         unit = STORE.get(key, make)
         return unit.with_force(unit.F * W2, self.period)
+
+    def _free_times(self) -> NDArray:
+        """The S step times of one period of the speed-free parameter set (the sample cache's
+        key, :func:`_speed_free`): the cached samples are made there, whatever speed asks first,
+        so that they, and every result built on them, do not depend on the order of the calls."""
+        return np.arange(self.steps_per_period) * (self._free.period / self.steps_per_period)
+
+    def _step_angles(self) -> tuple[NDArray, ...]:
+        """The crank angles at the S step times: of the speed-free parameter set where the
+        samples are cached (the same angles at every speed, made the same way whatever speed
+        asks first), else of this set-up."""
+        if self._key is None:
+            return self.crank_angles(self.t)
+        return crank_laws(self._free, self._free_times())[0::3]
 
     def _at_step_times(self, what: str, make):
         """``make()``, of a quantity at the S step times that does not depend on the speed,
@@ -202,7 +220,7 @@ class LinkageDynamics:
             return make()
         return STORE.get((_STEP_TIMES, what, self._key), make)
 
-    def _nested(self, key: tuple, t: NDArray, W2: float) -> tuple | None:
+    def _nested(self, key: tuple) -> tuple | None:
         """The samples at S from those at 2 S (every other one) or at S / 2 (computing only the
         S / 2 new ones) when the cache holds them: the step times k T / S are the even ones
         of k T / (2 S), to the last bit (halving is exact), so halving or doubling S, as
@@ -215,9 +233,10 @@ class LinkageDynamics:
             coarse = STORE.lookup(key[:2] + (S // 2,) + key[3:], touch=False) if S % 2 == 0 else None
             if coarse is None:
                 return None
-            M, C, K, F = self._sample(t[1::2])
+            M, C, K, F = self._sample(self._free_times()[1::2], self._free)
             out = []
-            for old, new in zip((coarse.M, coarse.C, coarse.K, coarse.F), (M, C, K, F / W2)):
+            for old, new in zip((coarse.M, coarse.C, coarse.K, coarse.F),
+                                (M, C, K, F / self._free.crank_speed_rad_s ** 2)):
                 X = np.empty((S,) + old.shape[1:])
                 X[0::2], X[1::2] = old, new
                 out.append(X)
@@ -225,9 +244,12 @@ class LinkageDynamics:
             X.flags.writeable = False
         return tuple(out)
 
-    def _sample(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-        laws = crank_laws(self.params, t)
-        state = rigid_state(self.params, *laws)
+    def _sample(self, t: NDArray, params: Params | None = None) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """M, C, K, F at the times ``t`` of ``params`` (default this set-up's; the cache samples
+        the speed-free set, whose matrices are the same and whose F scales with the speed)."""
+        params = self.params if params is None else params
+        laws = crank_laws(params, t)
+        state = rigid_state(params, *laws)
         M, K = self.model.matrices(*laws[0::3])
         k = self.keep
         # contiguous (the fancy index leaves a transposed layout), as the compiled loop reads them
@@ -236,13 +258,13 @@ class LinkageDynamics:
         F = np.ascontiguousarray(-np.einsum("...ij,...j->...i", M, ur))
         if self._P is not None:
             F = F + np.array([np.asarray(self._P(ti), float) for ti in np.atleast_1d(t)]).reshape(F.shape)
-        if self.params.damping_model == "stiffness":
+        if params.damping_model == "stiffness":
             beta = self.stiffness_damping_time
             Kb, Yb = (X[..., k[:, None], k[None, :]] for X in self._bending(laws, state))
             C = np.ascontiguousarray(beta * Kb)
             K = np.ascontiguousarray(K + beta * Yb)
         else:
-            C = modal_damping(M, K, self.params.damping_ratio)
+            C = modal_damping(M, K, params.damping_ratio)
         return M, C, K, F
 
     def _bending(self, laws, state) -> tuple[NDArray, NDArray]:
@@ -322,7 +344,7 @@ class LinkageDynamics:
             return None
         if self._elements is None:
             self._elements = self._at_step_times(
-                "elements", lambda: self._nl.compiled(*self.crank_angles(self.t)))
+                "elements", lambda: self._nl.compiled(*self._step_angles()))
         return self._elements
 
     def nonlinear_geometry(self, t: float) -> ElementGeometry:
@@ -338,7 +360,7 @@ class LinkageDynamics:
         if abs(x - k) <= 1e-9 * max(1.0, abs(x)):
             if self._geometry is None:
                 self._geometry = self._at_step_times(
-                    "geometry", lambda: self._nl.geometry(*self.crank_angles(self.t)))
+                    "geometry", lambda: self._nl.geometry(*self._step_angles()))
             return self._geometry.at(k % self.steps_per_period)
         return self._nl.geometry(*(float(theta) for theta in self.crank_angles(t)))
 

@@ -508,7 +508,9 @@ def _shooting(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) ->
         else:
             current = linear and own  # a given matrix is not this orbit's, even if linear
         if slow and current and V is not full:
-            V, current = full, False  # the modes left to Picard's iteration decay too slowly
+            # the modes left to Picard's iteration decay too slowly: Newton on every direction;
+            # W is of the reduced basis until the next period with a monodromy matrix
+            V, current, own = full, False, False
         refresh = slow and not current
     raise SteadyStateError(
         f"shooting did not converge in {max_iter} Newton iterations (max_iter): relative periodicity "
@@ -652,6 +654,7 @@ def steady_state(
     method: str = "shooting",
     tol: float | None = None,
     explain: bool = False,
+    start: SteadyState | None = None,
 ) -> SteadyState:
     """The periodic steady state of the linkage over one period of the motion.
 
@@ -691,6 +694,16 @@ def steady_state(
         nearest bifurcation).  The report is ``res.explained`` and ends ``res.note``.  Default False: an unstable orbit costs nothing
         more (its note says how to ask).  Needs ``method="shooting"`` (the multipliers);
         computes the multipliers of a nonlinear orbit (one period with the monodromy matrix).
+    start
+        A warm start (``tol`` and shooting only): the result of ``steady_state(..., tol=tol)``
+        for the same set-up at a nearby crank speed (within 25 %), for example the last speed
+        of a sweep.  Each S then starts from that result's orbit at the same S, scaled to this
+        speed, with its monodromy matrix as the first Jacobian (and, when that result was
+        itself warm-started, the secant through both speeds): one to three periods without a
+        monodromy matrix per S instead of a solve from the quasi-static state.  The S tried and
+        chosen are those of a cold start, and the orbit differs from a cold start's only within
+        the inner tolerance of shooting.  Nothing is remembered between calls: the same
+        arguments give the same result, to the last bit, whatever was computed before.
     """
     if method not in ("shooting", "march"):
         raise InputError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
@@ -701,8 +714,11 @@ def steady_state(
     if tol is not None:
         tol = number("tol", tol, low=0.0, high=1.0, low_open=True, high_open=True)
     s = as_setup(setup)
+    memo = None
+    if start is not None:
+        memo = _warm_start(start, s, method, tol)
     if tol is not None:
-        res = _to_tolerance(s, method, float(tol))
+        res = _to_tolerance(s, method, float(tol), memo)
     elif method == "shooting":
         res = shooting(s)
     else:
@@ -719,22 +735,39 @@ def steady_state(
     return res
 
 
-#: the kind of key, in the library's store, of the last orbits of ``steady_state(..., tol=...)``
-#: per problem but its speed ((kind, the set-up at 1 r/min, tol)): the speed, the S compared
-#: and, at each, the state at t = 0 and the monodromy matrix; the predictor of the next speed
-#: (kept for the :data:`_ORBIT_PROBLEMS` most recent problems)
-_ORBITS = "steady.orbits"
-_ORBIT_PROBLEMS = 4
-#: a remembered orbit predicts the next only within this relative change of the speed
+#: a warm start predicts the orbit only within this relative change of the speed
 _PREDICT_RANGE = 0.25
 
 
-def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
+def _warm_start(start: SteadyState, s: Setup, method: str, tol: float | None) -> dict:
+    """The predictor carried by ``start`` (a result of ``steady_state(..., tol=tol)`` of the same
+    set-up at another speed), checked: an error names what does not match."""
+    if not isinstance(start, SteadyState):
+        raise InputError(f"start = {start!r} is not allowed: give the SteadyState of an earlier "
+                         "steady_state(..., tol=...) call of the same set-up at a nearby speed")
+    if tol is None or method != "shooting":
+        raise InputError("start is not allowed here: a warm start serves steady_state(..., tol=...) with "
+                         f"method='shooting' (got tol = {tol!r}, method = {method!r})")
+    memo = start._cache.get("orbits")
+    if memo is None or memo["tol"] != tol:
+        raise InputError(f"start is not allowed: it was not solved by steady_state(..., tol={tol!r}) "
+                         "(its orbits at each S are needed)")
+    same = dict(crank_speed_rpm=1.0, steps_per_period=100)  # (with tol, the set-up's S is not used)
+    if start.setup is None or start.setup.replace(**same) != s.replace(**same):
+        raise InputError("start is not allowed: it was solved for another set-up (only the crank speed may "
+                         "differ)")
+    if abs(s.crank_speed_rpm / memo["rpm"] - 1.0) > _PREDICT_RANGE:
+        raise InputError(f"start is not allowed: its speed {memo['rpm']:g} r/min is more than "
+                         f"{100 * _PREDICT_RANGE:g} % from {s.crank_speed_rpm:g} r/min")
+    return memo
+
+
+def _to_tolerance(s: Setup, method: str, tol: float, memo: dict | None = None) -> SteadyState:
     """Steady states at S = 50, 100, 200, ... until two successive ones agree to ``tol``.
 
-    Each S starts from the orbit of the coarser S.  After a first speed, a new speed of the
-    same problem (within :data:`_PREDICT_RANGE` of it) starts every S from the orbit remembered
-    at that S, scaled as the quasi-static response scales with the speed (u as its square, v
+    Each S starts from the orbit of the coarser S.  With a warm start (``memo``, the orbits of
+    a result at a nearby speed of the same problem, :func:`_warm_start`), every S starts from
+    that result's orbit at that S, scaled as the quasi-static response scales with the speed (u as its square, v
     as its cube; at the finer S the coarser S's new orbit plus the remembered difference of
     the two), and takes the remembered monodromy matrix of that S as the chord iteration's
     Jacobian: one to three periods without a monodromy matrix per S (where the multipliers
@@ -747,13 +780,6 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
     inner = min(1e-6, 1e-3 * tol)  # the orbit to well below tol: residual of shooting, change of march
     S_min = max(_TOL_FIRST_STEPS, min_steps_per_period(s.params))
     S = S_min
-    key = None
-    memo = None
-    if method == "shooting":
-        key = (_ORBITS, s.replace(crank_speed_rpm=1.0), tol)
-        memo = STORE.lookup(key, touch=False)  # (an unhashable parameter set: no memory)
-    if memo is not None and abs(s.crank_speed_rpm / memo["rpm"] - 1.0) > _PREDICT_RANGE:
-        memo = None
     solved: list[SteadyState] = []
     stale: set[int] = set() if memo is None else set(memo["stale"])
     prev: SteadyState | None = None
@@ -801,8 +827,8 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
                                f"deflections of {' and '.join(s.params.linkage.couplers)} changed by at most "
                                f"{err:.2g} of their peak-to-peak "
                                f"value from S = {prev.dynamics.steps_per_period} to S = {S}")}
-                if key is not None:
-                    _remember(key, s.crank_speed_rpm, solved, stale)
+                if method == "shooting":
+                    cur._cache["orbits"] = _orbits(memo, tol, s.crank_speed_rpm, solved, stale)
                 return cur
         prev, S = cur, 2 * S
     raise SteadyStateError(
@@ -832,22 +858,18 @@ def _predict(memo: dict, S: int, rpm: float) -> NDArray:
     return _scaled(z, rpm)
 
 
-def _remember(key, rpm: float, solved: list[SteadyState], stale: set[int]) -> None:
-    """Keep the orbits solved at ``rpm`` (and their monodromy matrices; where none was taken,
-    the last speed's stays) as the predictor of the next speed of the same problem, with the
-    S at which a neighbouring speed's matrix proved too stale to serve; the
-    :data:`_ORBIT_PROBLEMS` most recent problems are kept."""
-    old = STORE.pop(key)
-    memo = {"rpm": rpm, "x": {}, "monodromy": {} if old is None else dict(old["monodromy"]), "stale": stale,
-            "before": None if old is None else {"rpm": old["rpm"], "x": old["x"]}}
+def _orbits(memo: dict | None, tol: float, rpm: float, solved: list[SteadyState], stale: set[int]) -> dict:
+    """The orbits solved at ``rpm`` (and their monodromy matrices; where none was taken, the
+    warm start's stays) as the predictor of a next speed (``steady_state(..., start=)``), with
+    the S at which a neighbouring speed's matrix proved too stale to serve."""
+    out = {"tol": tol, "rpm": rpm, "x": {}, "monodromy": {} if memo is None else dict(memo["monodromy"]),
+           "stale": set(stale), "before": None if memo is None else {"rpm": memo["rpm"], "x": memo["x"]}}
     for r in solved:
         S = r.dynamics.steps_per_period
-        memo["x"][S] = np.concatenate([r.u[0], r.v[0]])
+        out["x"][S] = np.concatenate([r.u[0], r.v[0]])
         if "monodromy" in r._cache:  # else the one of an earlier speed stays (the chord method's guide)
-            memo["monodromy"][S] = r._cache["monodromy"]
-    STORE.put(key, memo)
-    for older in STORE.keys(_ORBITS)[:-_ORBIT_PROBLEMS]:
-        STORE.pop(older)
+            out["monodromy"][S] = r._cache["monodromy"]
+    return out
 
 
 def _deflection_change(coarse: SteadyState, fine: SteadyState) -> float:
