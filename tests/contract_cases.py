@@ -29,11 +29,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "lib"))
 
 import fivebar as fb  # noqa: E402
-from fivebar import datasets  # noqa: E402
-from fivebar.newmark import integrate  # noqa: E402
-from fivebar.systems import PeriodicStepData, System  # noqa: E402
-from fivebar.steady import march, shooting  # noqa: E402
-from fivebar.sweep import speed_sweep, sweep_point  # noqa: E402
+from fivebar.book import datasets  # noqa: E402
+from fivebar.numerics.newmark import integrate  # noqa: E402
+from fivebar.numerics.systems import PeriodicStepData, System  # noqa: E402
+from fivebar.analyses.steady import march, shooting  # noqa: E402
+from fivebar.analyses.sweep import speed_sweep, sweep_point  # noqa: E402
 
 P = fb.load_params()
 #: a cheap set-up for the solvers' bad-input cases (linear, no motors, S = 100)

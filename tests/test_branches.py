@@ -1,4 +1,4 @@
-"""The linkage's periodic steady state followed in a parameter (fivebar.branches).
+"""The linkage's periodic steady state followed in a parameter (fivebar.analyses.branches).
 
 Checked against the library's two other routes to the same orbit, which share with the
 continuation only the time integrator: ``steady_state`` (shooting from the quasi-static start,
@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 import fivebar
-from fivebar.branches import brute_force_diagram, describe_speed, follow, linkage_period_map
+from fivebar.analyses.branches import brute_force_diagram, describe_speed, follow, linkage_period_map
 from fivebar.errors import FivebarError
-from fivebar.steady import steady_state
-from fivebar.setup import Setup
+from fivebar.analyses.steady import steady_state
+from fivebar.description.setup import Setup
 
 
 @pytest.fixture(scope="module")

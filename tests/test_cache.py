@@ -18,7 +18,7 @@ import pytest
 import fivebar
 from fivebar import Setup, clear_cache, load_params, steady_state
 from fivebar.cache import MAX_BYTES, MAX_ENTRIES, STORE, Store, cache_size, memoised
-from fivebar.dynamics import LinkageDynamics
+from fivebar.model.dynamics import LinkageDynamics
 from fivebar.errors import FivebarError
 
 P = load_params()
@@ -152,7 +152,7 @@ def test_equal_setups_share_one_dynamics():
 
 
 def test_a_sweep_point_from_the_store_is_the_one_computed_afresh(monkeypatch):
-    from fivebar import sweep
+    from fivebar.analyses import sweep
 
     speeds = [150.0, 420.0]
     first = dict(progress=False)
@@ -199,8 +199,8 @@ def test_results_do_not_depend_on_the_budget_and_it_holds(budget):
 
 
 def _library_modules():
-    for m in pkgutil.iter_modules(fivebar.__path__):
-        yield importlib.import_module(f"fivebar.{m.name}")
+    for m in pkgutil.walk_packages(fivebar.__path__, "fivebar."):
+        yield importlib.import_module(m.name)
 
 
 def _containers():
@@ -234,7 +234,8 @@ def test_no_cache_of_the_library_lives_outside_the_store():
 
     before = {k: (id(v), _contents(v)) for k, v in _containers().items()}
     clear_cache()
-    from fivebar import elements, resonance, response, sweep
+    from fivebar.model import elements
+    from fivebar.analyses import resonance, response, sweep
     s = Setup(P, crank_speed_rpm=320, steps_per_period=50, nonlinear=False, motors=False)
     res = steady_state(s)
     res.bending_stress()
@@ -250,7 +251,7 @@ def test_no_cache_of_the_library_lives_outside_the_store():
     assert not grown, f"module-level containers changed by computing (a cache outside fivebar.cache?): {grown}"
     kinds = {k[0] for k in STORE._data}
     assert {"dynamics.samples", "setup.dynamics", "steady.orbits", "sweep.point", "newmark.lu",
-            "fivebar.resonance._modal_data", "fivebar.elements._legendre"} <= kinds, kinds
+            "fivebar.analyses.resonance._modal_data", "fivebar.model.elements._legendre"} <= kinds, kinds
     assert cache_size().entries > 0 and cache_size().bytes > 0
     clear_cache()
     assert cache_size() == (0, 0)

@@ -1,4 +1,4 @@
-"""The CSV downloads (fivebar.datasets): contents against the library, provenance, cache."""
+"""The CSV downloads (fivebar.book.datasets): contents against the library, provenance, cache."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 import fivebar
-from fivebar import datasets
-from fivebar.kinematics import crank_laws
-from fivebar.resonance import linkage_frequencies
-from fivebar.sweep import sweep_point
-from fivebar.setup import Setup
+from fivebar.book import datasets
+from fivebar.model.kinematics import crank_laws
+from fivebar.analyses.resonance import linkage_frequencies
+from fivebar.analyses.sweep import sweep_point
+from fivebar.description.setup import Setup
 
 ROOT = Path(__file__).resolve().parents[1]
 CHEAP = ["figure6_curves", "natural_frequencies", "resonance_speeds"]

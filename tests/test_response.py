@@ -1,4 +1,4 @@
-"""The one result type in time (fivebar.response), against independent references: a
+"""The one result type in time (fivebar.analyses.response), against independent references: a
 displacement field whose point displacements follow from the kinematics and the shape
 functions by hand, the quasi-static deflection from the matrices at each time, the periodicity
 of a transient started on the orbit, and the shooting orbit against the low-speed quasi-static
@@ -13,14 +13,14 @@ import pytest
 
 import fivebar
 from fivebar import load_params
-from fivebar.dynamics import LinkageDynamics
+from fivebar.model.dynamics import LinkageDynamics
 from fivebar.errors import FivebarError
-from fivebar.kinematics import positions
-from fivebar.linkage_multiscale import MultipleScalesResponse
-from fivebar.multibody import MultibodySteadyState
-from fivebar.response import Response, quasi_static, radau, transient
-from fivebar.steady import SteadyState, shooting
-from fivebar.setup import Setup
+from fivebar.model.kinematics import positions
+from fivebar.analyses.linkage_multiscale import MultipleScalesResponse
+from fivebar.analyses.multibody import MultibodySteadyState
+from fivebar.analyses.response import Response, quasi_static, radau, transient
+from fivebar.analyses.steady import SteadyState, shooting
+from fivebar.description.setup import Setup
 
 P = load_params()
 

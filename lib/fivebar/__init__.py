@@ -38,17 +38,9 @@ _FACADE = {
 }
 
 
-# Modules a chapter reaches as ``fivebar.<module>`` without importing them first.
-_SUBMODULES = ("chapter",)
-
-
 def __getattr__(name: str):
     import importlib
 
-    if name in _SUBMODULES:
-        value = importlib.import_module(f".{name}", __name__)
-        globals()[name] = value
-        return value
     module = _FACADE.get(name)
     if module is None:
         raise AttributeError(f"module 'fivebar' has no attribute {name!r}")
