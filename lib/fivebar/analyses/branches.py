@@ -1,8 +1,8 @@
 r"""The linkage's periodic response followed in a parameter: branches, bifurcations, brute force.
 
-The glue between the linkage (:class:`fivebar.setup.Setup`, the period map of
-:mod:`fivebar.steady`) and the generic :mod:`fivebar.periodic` and
-:mod:`fivebar.continuation`:
+The glue between the linkage (:class:`fivebar.description.setup.Setup`, the period map of
+:mod:`fivebar.analyses.steady`) and the generic :mod:`fivebar.numerics.periodic` and
+:mod:`fivebar.numerics.continuation`:
 
 * :func:`linkage_period_map`: the period map of (2.7) at a value of a parameter (the crank
   speed, or any numeric entry of the parameter file), with its monodromy matrix from the
@@ -22,7 +22,7 @@ The glue between the linkage (:class:`fivebar.setup.Setup`, the period map of
 * :func:`describe_speed`: at one speed, what the linkage does: the stable period-1 orbit, or,
   where it is unstable, what a march from it settles on (a period-2 orbit shot and checked, a
   different period-1 orbit, no periodic motion, or a divergence; the generic
-  :func:`fivebar.continuation.settle`).  :func:`explain_steady` gives the same report for a
+  :func:`fivebar.numerics.continuation.settle`).  :func:`explain_steady` gives the same report for a
   solved steady state; ``steady_state(..., explain=True)`` attaches it to its result.
 """
 
@@ -79,13 +79,13 @@ def _check_parameter(setup: Setup, parameter: str) -> float:
 
 
 class LinkagePeriodMap:
-    """The linkage's period map in a parameter (a :class:`fivebar.periodic.PeriodMap`); made by
+    """The linkage's period map in a parameter (a :class:`fivebar.numerics.periodic.PeriodMap`); made by
     :func:`linkage_period_map`.
 
     Calling it, ``f(x, p, jacobian)``, integrates one period of the set-up at parameter value
     ``p`` from the state ``x = (u, du/dtheta)`` at crank angle 0.  Besides: ``f.dynamics(p)``
-    (the set-up and its :class:`~fivebar.dynamics.LinkageDynamics` at ``p``, the last four
-    kept), ``f.state(steady)`` (the state of a :class:`~fivebar.steady.SteadyState`),
+    (the set-up and its :class:`~fivebar.model.dynamics.LinkageDynamics` at ``p``, the last four
+    kept), ``f.state(steady)`` (the state of a :class:`~fivebar.analyses.steady.SteadyState`),
     ``f.steady(x, p)`` (one stored period from ``x``, a ``SteadyState``).
     """
 
@@ -154,7 +154,7 @@ class LinkagePeriodMap:
 
 @analysis
 def linkage_period_map(setup: Setup | Params, parameter: str = _SPEED) -> LinkagePeriodMap:
-    """The linkage's period map in ``parameter`` (a :class:`fivebar.periodic.PeriodMap`).
+    """The linkage's period map in ``parameter`` (a :class:`fivebar.numerics.periodic.PeriodMap`).
 
     ``f = linkage_period_map(fivebar.Setup(params, motors=False))``;
     ``x_T, Phi = f(x, 120.0, True)`` at 120 r/min, ``x = (u, du/dtheta)`` at crank angle 0
@@ -166,7 +166,7 @@ def linkage_period_map(setup: Setup | Params, parameter: str = _SPEED) -> Linkag
         The set-up (its S, scheme, mesh, motors, nonlinearity are used at every value).
     parameter
         ``"crank_speed_rpm"`` (the set-up's speed) or a numeric key of the parameter file
-        (``"bending_depth"``, ``"motor1.m0"`` ...: see :meth:`fivebar.params.Params.replace`).
+        (``"bending_depth"``, ``"motor1.m0"`` ...: see :meth:`fivebar.description.params.Params.replace`).
     """
     s = as_setup(setup)
     _check_parameter(s, parameter)
@@ -180,7 +180,7 @@ class LinkageBranch:
     Attributes
     ----------
     branch : Branch
-        The generic branch (:class:`fivebar.continuation.Branch`): its ``p`` are the parameter
+        The generic branch (:class:`fivebar.numerics.continuation.Branch`): its ``p`` are the parameter
         values, ``x`` the states ``(u, du/dtheta)`` at crank angle 0, ``multipliers``,
         ``stable``, ``bifurcations``, ``steps``, ``newton``, ``stats``.
     period_map
@@ -210,11 +210,11 @@ class LinkageBranch:
 
     @property
     def bifurcations(self):
-        """The located bifurcations (:class:`fivebar.continuation.Bifurcation`)."""
+        """The located bifurcations (:class:`fivebar.numerics.continuation.Bifurcation`)."""
         return self.branch.bifurcations
 
     def steady(self, i: int) -> SteadyState:
-        """Point ``i`` as a :class:`~fivebar.steady.SteadyState` (one period integrated)."""
+        """Point ``i`` as a :class:`~fivebar.analyses.steady.SteadyState` (one period integrated)."""
         q = self.branch.points[i]
         base = self.period_map if isinstance(self.period_map, LinkagePeriodMap) else self.period_map.base
         return base.steady(q.x, q.p)
@@ -233,9 +233,9 @@ class LinkageBranch:
 
     def validity(self) -> "pd.DataFrame":
         """The model's validity at every point, as for a steady state
-        (:attr:`fivebar.steady.SteadyState.validity`, its cheap checks): one row per point with
+        (:attr:`fivebar.analyses.steady.SteadyState.validity`, its cheap checks): one row per point with
         the parameter, ``peak stress (MPa)``, ``stress / yield`` (the file's ``yield_stress``),
-        ``deflection / length`` (against :data:`fivebar.steady.DEFLECTION_LIMIT`, the
+        ``deflection / length`` (against :data:`fivebar.analyses.steady.DEFLECTION_LIMIT`, the
         small-deflection range), ``stable`` and ``valid``.  One period integrated per point
         (kept)."""
         if "validity" not in self._pp:
@@ -268,7 +268,7 @@ class LinkageBranch:
 
 
 def _scan_scale(f: LinkagePeriodMap, p0: float, p_end: float, count: int = 12) -> Array:
-    """Scale of the state from the energy norm of :mod:`fivebar.steady`: the state enters the
+    """Scale of the state from the energy norm of :mod:`fivebar.analyses.steady`: the state enters the
     arclength as ``sqrt(K_ii) u_i / E`` and ``Omega sqrt(M_ii) (du/dtheta)_i / E`` (``K, M`` at
     crank angle 0), with ``E`` the largest energy norm ``sqrt(u K u + v M v)`` of the linear
     model's orbits at ``count`` values across the range and ``Omega`` the speed where it
@@ -326,7 +326,7 @@ def follow(
     points
         Budget of points (``max_points``); ``ds`` defaults to ``1 / points`` and ``ds_max`` to
         ``10 / points`` (scaled arclength: the whole range of the parameter is 1).  The step is
-        set by the curvature of the branch (:func:`fivebar.continuation.continuation`: the
+        set by the curvature of the branch (:func:`fivebar.numerics.continuation.continuation`: the
         tangent turns by about 0.2 rad per step) and by the corrector's iterations; ``ds_max``
         only bounds it where the branch is nearly straight, away from resonances.  On the
         flexible orientation (10-300 r/min, S = 800, nonlinear; the benchmark
@@ -348,7 +348,7 @@ def follow(
     tol
         Corrector tolerance (scaled residual).
     **kwargs
-        Passed to :func:`fivebar.continuation.continuation` (``locate_tol``, ``max_newton`` ...).
+        Passed to :func:`fivebar.numerics.continuation.continuation` (``locate_tol``, ``max_newton`` ...).
 
     Where the continuation cannot go on (the step falls below its smallest, for example
     because the integrator fails on a period), the branch up to there is returned and its
@@ -396,7 +396,7 @@ class _Doubled:
 def follow_period_doubling(branch: LinkageBranch, index: int, p_end: float, *, h: float = 0.05,
                            points: int = 100, **kwargs) -> LinkageBranch:
     """Switch at ``branch.bifurcations[index]`` (a period doubling) onto the period-2 branch
-    and follow it towards ``p_end`` (:func:`fivebar.continuation.switch_period_doubling`).
+    and follow it towards ``p_end`` (:func:`fivebar.numerics.continuation.switch_period_doubling`).
 
     ``h`` is the first period-2 point's distance from the bifurcation along the critical
     eigenvector, relative to the size of the orbit there (scaled norm).
@@ -493,7 +493,7 @@ def brute_force_diagram(
 
     At each value (``values`` in order, then reversed if ``both_ways``) the linkage is marched
     ``transient`` periods from the last state of the previous value (the first from the
-    quasi-static start of :func:`fivebar.steady.shooting`'s default, marched from rest), then
+    quasi-static start of :func:`fivebar.analyses.steady.shooting`'s default, marched from rest), then
     ``samples`` more periods, whose states at crank angle 0 are the Poincaré samples.  A value
     whose march fails restarts the next one from rest.  Independent of the continuation: it
     uses only the integrator's periods, no Newton on periodicity, no monodromy matrix.
@@ -568,12 +568,12 @@ def describe_speed(setup: Setup | Params, value: float | None = None, parameter:
 
     Shoots the period-1 orbit; if it is stable, says so.  Otherwise marches ``periods``
     periods from it, disturbed along its most unstable Floquet direction (by 1 % of its
-    size), and names what the Poincaré samples settle on (:func:`fivebar.continuation.settle`):
+    size), and names what the Poincaré samples settle on (:func:`fivebar.numerics.continuation.settle`):
     a period-2 orbit (shot on the twice-iterated map, its multipliers given), another period-1
     orbit, no periodic motion within the march, or a divergence.  With ``branch`` the nearest
     located bifurcation is named as well ("period doubling at ... r/min; stable period-2
     orbit ...").  ``steady_state(..., explain=True)`` gives the same report for the orbit it
-    solved (:attr:`fivebar.steady.SteadyState.explained`).
+    solved (:attr:`fivebar.analyses.steady.SteadyState.explained`).
     """
     s = as_setup(setup)
     f = linkage_period_map(s, parameter)

@@ -102,8 +102,8 @@ def assumption_effects(
     variant that differs from it (a variant whose changes are the values already chosen is
     left out), with the change of the L2 and L3 transverse peak-to-peak deflection from the
     first row (%), 0 where it is below what the steady states resolve (1e-6 %: round-off
-    of a variant that cannot move the linkage).  The steady states come from :func:`fivebar.steady.steady_state` of the
-    problem (a :class:`fivebar.setup.Setup`, or a Params: ``Setup(params)``, the geometric
+    of a variant that cannot move the linkage).  The steady states come from :func:`fivebar.analyses.steady.steady_state` of the
+    problem (a :class:`fivebar.description.setup.Setup`, or a Params: ``Setup(params)``, the geometric
     nonlinearity and the library's default step and scheme, converged for any sensible
     parameters; the paper's S = 100 and rule fail where the deflections are large, and the
     linear model is then far off: 19.6 against 12.6 mm at 120 r/min with the 2 mm side in
@@ -155,8 +155,8 @@ def speed_table(setup: Setup | Params, speeds_rpm: tuple[float, ...]) -> pd.Data
 
     ``speed_table(fivebar.Setup(params, steps_per_period=100, nonlinear=False,
     scheme=fivebar.PAPER_SCHEME), (30, 60, 120))``: the steady states of the problem (a
-    :class:`fivebar.setup.Setup` or a Params) at each speed.  The torques are the rigid-body
-    inverse dynamics (:func:`fivebar.rigid.motor_torques`) over one period; the table sets
+    :class:`fivebar.description.setup.Setup` or a Params) at each speed.  The torques are the rigid-body
+    inverse dynamics (:func:`fivebar.model.rigid.motor_torques`) over one period; the table sets
     them against motor 1's printed stall torque and the stress against the assumed yield
     stress.
     """

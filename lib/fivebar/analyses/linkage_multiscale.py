@@ -1,13 +1,13 @@
 r"""The linkage's modal equations (3.4) and its first approximation (3.6)-(3.7).
 
-The glue between the generic multiple-scales solver :mod:`fivebar.multiscale` (with
-:mod:`fivebar.modal_equations`, which know nothing of the linkage) and the model: :func:`modal_model` builds the modal system, harmonics
-and parametric terms of :class:`fivebar.dynamics.LinkageDynamics` from
-:func:`fivebar.excitation.modal_basis`; :func:`multiple_scales` returns the first
-approximation as a :class:`fivebar.response.Response`; :func:`multiple_scales_newmark` is the
+The glue between the generic multiple-scales solver :mod:`fivebar.numerics.multiscale` (with
+:mod:`fivebar.numerics.modal_equations`, which know nothing of the linkage) and the model: :func:`modal_model` builds the modal system, harmonics
+and parametric terms of :class:`fivebar.model.dynamics.LinkageDynamics` from
+:func:`fivebar.model.excitation.modal_basis`; :func:`multiple_scales` returns the first
+approximation as a :class:`fivebar.analyses.response.Response`; :func:`multiple_scales_newmark` is the
 paper's method (section 4): the first approximation at t = 0 as the initial state of the
 implicit scheme, marched to the steady state; :func:`compare_starts` measures its benefit.
-Every function takes a :class:`fivebar.setup.Setup` or a Params.
+Every function takes a :class:`fivebar.description.setup.Setup` or a Params.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ class ModalModel:
     r"""The modal equations (3.4) of the linkage subsystem at one crank speed.
 
     Built by :func:`modal_model`.  With the instantaneous modes
-    :math:`\boldsymbol\Phi(t)` of :func:`fivebar.excitation.modal_basis`,
+    :math:`\boldsymbol\Phi(t)` of :func:`fivebar.model.excitation.modal_basis`,
 
     .. math::
 
@@ -70,16 +70,16 @@ class ModalModel:
     Attributes
     ----------
     dynamics : LinkageDynamics
-    basis : fivebar.excitation.ModalBasis
+    basis : fivebar.model.excitation.ModalBasis
     system : ModalSystem
         :math:`\bar\omega, \zeta, \alpha, \bar\delta, \bar\gamma` (epsilon absorbed).
     harmonics : tuple of Harmonic
         The modal load (2.10), :math:`k = 0..m` (k = 0 the mean).
     parametric : tuple of Parametric
         :math:`W_{rk}` as cosine and sine parts (empty without ``parametric``).
-    load : fivebar.excitation.FourierSeries
+    load : fivebar.model.excitation.FourierSeries
         (2.10) of the modal forces.
-    stiffness : fivebar.excitation.FourierSeries
+    stiffness : fivebar.model.excitation.FourierSeries
         (2.10) of the modal stiffness, its (k, k) entries flattened (rad^2/s^2).
     delta, gamma : ndarrays (S, k, k, k), (S, k, k, k, k)
         The nonlinear coefficients at every step (zeros without ``nonlinear``).
@@ -105,7 +105,7 @@ def modal_nonlinear_coefficients(dyn, basis, step_indices: Sequence[int] | None 
     r"""Quadratic and cubic modal coefficients :math:`\delta_{rst}, \gamma_{rstu}` at given steps.
 
     The internal nonlinear force :math:`\mathbf f_{nl}(\mathbf u, t)` of
-    :mod:`fivebar.nonlinear` (the gradient of the cubic and quartic strain energy, the negative
+    :mod:`fivebar.model.nonlinear` (the gradient of the cubic and quartic strain energy, the negative
     of the paper's :math:`\varepsilon`) projected on the modes is
     :math:`g_r(\boldsymbol\eta) = \boldsymbol\phi_r^\top\mathbf f_{nl}(\boldsymbol\Phi
     \boldsymbol\eta) = -\sum\delta_{rst}\eta_s\eta_t - \sum\gamma_{rstu}\eta_s\eta_t\eta_u`.
@@ -129,7 +129,7 @@ def modal_nonlinear_coefficients(dyn, basis, step_indices: Sequence[int] | None 
     ----------
     dyn : LinkageDynamics
         Must have been built with ``nonlinear=True``.
-    basis : fivebar.excitation.ModalBasis
+    basis : fivebar.model.excitation.ModalBasis
     step_indices : sequence of int, optional
         Indices (0..S - 1) of the steps to evaluate (default all S).
 
@@ -187,7 +187,7 @@ def modal_model(
     parametric: bool = True,
     nonlinear_steps: int | None = 20,
 ) -> ModalModel:
-    r"""The modal equations (3.4) of a :class:`~fivebar.dynamics.LinkageDynamics` (see
+    r"""The modal equations (3.4) of a :class:`~fivebar.model.dynamics.LinkageDynamics` (see
     :class:`ModalModel`).
 
     Parameters
@@ -196,7 +196,7 @@ def modal_model(
     n_modes : int
         Modes kept (the paper: 2, (3.6)).
     basis : {"instantaneous", "reference"}
-        :func:`fivebar.excitation.modal_basis`.  With "reference" the modal stiffness
+        :func:`fivebar.model.excitation.modal_basis`.  With "reference" the modal stiffness
         :math:`\boldsymbol\phi^\top\mathbf K(t)\boldsymbol\phi` is taken as the paper's
         :math:`\bar\omega^2` (no :math:`\alpha`, no parametric terms).
     frequencies : {"mean", "effective"}
@@ -204,7 +204,7 @@ def modal_model(
         frequencies; "effective", :math:`\sqrt{\bar\omega_r^2 + \bar H_{rr}}` with the
         period mean of the kinematic stiffness
         :math:`\mathbf H = \boldsymbol\Phi^\top\mathbf M\ddot{\boldsymbol\Phi}`
-        (:attr:`fivebar.excitation.ModalBasis.kinematic_stiffness`, about :math:`-\Omega^2`:
+        (:attr:`fivebar.model.excitation.ModalBasis.kinematic_stiffness`, about :math:`-\Omega^2`:
         spin softening).
     kinematic : bool
         Keep :math:`\mathbf H(t)` in the modal stiffness (its mean in :math:`\alpha`, its
@@ -293,7 +293,7 @@ def default_detuning(model: ModalModel) -> float:
 class MultipleScalesResponse(Response):
     r"""The first approximation (3.6)-(3.7) over one period, as a steady state of the linkage.
 
-    A :class:`fivebar.response.Response` (``method == "multiple scales"``) whose ``u, v`` are :math:`\boldsymbol\Phi(t)\boldsymbol\eta(t)` and
+    A :class:`fivebar.analyses.response.Response` (``method == "multiple scales"``) whose ``u, v`` are :math:`\boldsymbol\Phi(t)\boldsymbol\eta(t)` and
     :math:`\boldsymbol\Phi\dot{\boldsymbol\eta} + \dot{\boldsymbol\Phi}\boldsymbol\eta`
     at the S + 1 samples, so ``midpoint_mm(link, direction)``, ``peak_to_peak_mm``,
     ``bending_stress`` and ``plot`` work as for the numerical steady state.  Extra attributes: ``modal``
@@ -342,7 +342,7 @@ def multiple_scales(
     Parameters
     ----------
     setup : Setup or Params
-        The problem (:class:`fivebar.setup.Setup`: crank speed, S, motors, mesh, and
+        The problem (:class:`fivebar.description.setup.Setup`: crank speed, S, motors, mesh, and
         ``nonlinear``, which also switches the modal coefficients :math:`\delta, \gamma`; a
         Params means ``Setup(params)``).
     n_modes, basis, frequencies, kinematic, parametric, fourier_terms
@@ -357,7 +357,7 @@ def multiple_scales(
     Returns
     -------
     MultipleScalesResponse
-        A :class:`fivebar.response.Response`.
+        A :class:`fivebar.analyses.response.Response`.
     """
     dyn = as_setup(setup).dynamics()
     model = modal_model(
@@ -442,15 +442,15 @@ def multiple_scales_newmark(
 
     The first approximation at :math:`t = 0` (:func:`multiple_scales`, ``**kwargs`` passed on)
     is the initial state; the implicit scheme marches period after period
-    (:func:`fivebar.steady.march`) until the state repeats to ``tol`` (relative change over one
-    period in the energy norm).  ``setup`` is a :class:`fivebar.setup.Setup` or a Params; the
+    (:func:`fivebar.analyses.steady.march`) until the state repeats to ``tol`` (relative change over one
+    period in the energy norm).  ``setup`` is a :class:`fivebar.description.setup.Setup` or a Params; the
     scheme and S are the set-up's (by default the parameter file's generalised-alpha: the paper's
     average-acceleration rule at S = 100 has an unstable discrete periodic orbit for this
     model, errata E26, so marching with it diverges).
 
     Returns
     -------
-    fivebar.steady.SteadyState
+    fivebar.analyses.steady.SteadyState
         ``method == "march"``; ``periods`` is the number of periods marched.
     """
     from .steady import march
@@ -473,9 +473,9 @@ def compare_starts(
     r"""Periods Newmark needs to reach the steady state from several starts, and the error of
     the multiple-scales approximation, at several crank speeds.
 
-    For every speed (replacing the problem's, a :class:`fivebar.setup.Setup` or a Params):
+    For every speed (replacing the problem's, a :class:`fivebar.description.setup.Setup` or a Params):
     the steady state by shooting (the reference, same scheme), the
-    first approximation (:func:`multiple_scales`, ``**kwargs``), and :func:`fivebar.steady.march`
+    first approximation (:func:`multiple_scales`, ``**kwargs``), and :func:`fivebar.analyses.steady.march`
     from each start until the relative change over a period is below ``tol``.
 
     Returns

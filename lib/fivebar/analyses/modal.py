@@ -84,7 +84,7 @@ def modes(setup: Setup | Params, *theta: float, n_modes: int | None = 6, model: 
     ``modes(setup, theta1, theta4)`` for the five-bar (one angle per driven crank of the
     description: ``modes(setup, theta)`` for a four-bar); the problem's ``motors`` (False: the
     crank roots clamped, the motor elements left out) and ``elements_per_link`` choose the model
-    (:class:`fivebar.setup.Setup`; a Params is ``Setup(params)``).  ``n_modes=None`` returns all
+    (:class:`fivebar.description.setup.Setup`; a Params is ``Setup(params)``).  ``n_modes=None`` returns all
     modes.  Pass a prebuilt ``model`` to skip the assembly set-up.
     """
     s = as_setup(setup)

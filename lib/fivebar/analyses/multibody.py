@@ -19,7 +19,7 @@ deflection) are all present.
   Vibration 318, 2008, 461-487), axial stiffness ``E A``,
   bending stiffness ``E I`` with the in-plane depth ``params.bending_depth``, mass per length
   ``rho A`` (no rotary inertia: the library's ``rotary_inertia`` term has no counterpart).
-* The linkage is the parameter file's description (:class:`fivebar.linkage.Linkage`; the
+* The linkage is the parameter file's description (:class:`fivebar.description.linkage.Linkage`; the
   paper's five-bar by default, or any single-loop linkage it describes).
 * Pins (B, C, D of the five-bar): the position coordinates of the two link ends are tied,
   slopes free.  Ground pins: position fixed, slope free.
@@ -40,7 +40,7 @@ deflection) are all present.
   (higher modes are damped more, :math:`\zeta\omega_k/\omega_1`).
 * Gravity ``params.gravity`` along -y when it is not zero.
 
-Midpoint deflections are measured as in :meth:`fivebar.response.Response.midpoint_mm`: the
+Midpoint deflections are measured as in :meth:`fivebar.analyses.response.Response.midpoint_mm`: the
 displacement of the link's midpoint from its rigid-body position (the kinematics at the same
 crank angles), projected on the rigid link's normal ("transverse") or axis ("longitudinal");
 "chord" subtracts the mean transverse displacement of the two ends.
@@ -323,7 +323,7 @@ def damping_ratios(
 
 @dataclass
 class MultibodySteadyState:
-    """One steady period of the multibody model, read like :class:`fivebar.steady.SteadyState`
+    """One steady period of the multibody model, read like :class:`fivebar.analyses.steady.SteadyState`
     (the same accessors: ``t``, ``params``, ``crank_angle_deg``, ``deflection_mm``,
     ``midpoint_mm``, ``peak_to_peak_mm``, ``method``, ``plot``).
 
@@ -376,7 +376,7 @@ class MultibodySteadyState:
         """Elastic displacement (mm) of the node at ``s`` (0 to 1 from the link's first end) of a
         link over the period.
 
-        Same definitions, directions and signs as :meth:`fivebar.response.Response.deflection_mm`;
+        Same definitions, directions and signs as :meth:`fivebar.analyses.response.Response.deflection_mm`;
         ``s`` must fall on a node of the link's mesh.
         """
         names = self.params.linkage.link_names
@@ -402,7 +402,7 @@ class MultibodySteadyState:
         """Elastic displacement (mm) of the midpoint of a link over the period:
         :meth:`deflection_mm` at ``s = 0.5`` (the mesh has a node there on the couplers).
 
-        Same definitions, directions and signs as :meth:`fivebar.response.Response.midpoint_mm`.
+        Same definitions, directions and signs as :meth:`fivebar.analyses.response.Response.midpoint_mm`.
         """
         return self.deflection_mm(link, 0.5, direction)
 
@@ -413,12 +413,12 @@ class MultibodySteadyState:
 
     @property
     def method(self) -> str:
-        """What computed it: "multibody" (Exudyn), as the ``method`` of a :class:`fivebar.response.Response`."""
+        """What computed it: "multibody" (Exudyn), as the ``method`` of a :class:`fivebar.analyses.response.Response`."""
         return "multibody"
 
     def plot(self, links=None, direction: str = "transverse", ax=None, **kwargs):
         """Draw the midpoint displacements against the crank angle
-        (:func:`fivebar.plotting.response_plot`); returns the matplotlib Axes."""
+        (:func:`fivebar.book.plotting.response_plot`); returns the matplotlib Axes."""
         from ..book.plotting import response_plot
 
         return response_plot(self, links, direction, ax, **kwargs)

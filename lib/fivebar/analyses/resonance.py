@@ -31,7 +31,7 @@ condition 3 of order 2.
 
 For the linkage subsystem (:func:`resonance_table`) the only excitation is the crank
 frequency :math:`\Omega = \nu_1 = \nu_2 = \nu_3` (equal speeds; the motors' field and rotor
-frequencies act on the decoupled rotors, :func:`fivebar.excitation.excitation_frequencies`), its
+frequencies act on the decoupled rotors, :func:`fivebar.model.excitation.excitation_frequencies`), its
 harmonics run to :math:`m` = ``params.fourier_terms``, and the natural frequencies are the means
 of the instantaneous frequencies of the linkage subsystem (without the rotor whirl modes).
 """
@@ -55,7 +55,7 @@ from ..model.excitation import excitation_frequencies
 from ..description.params import Params
 from ..description.setup import Setup, analysis, as_setup
 
-if TYPE_CHECKING:  # drawing lives in fivebar.plotting; only the wrapper's annotations name it
+if TYPE_CHECKING:  # drawing lives in fivebar.book.plotting; only the wrapper's annotations name it
     import matplotlib.pyplot as plt
 
 __all__ = [
@@ -228,9 +228,9 @@ def linkage_frequencies(setup: Setup | Params, n_modes: int = 4) -> NDArray:
     r"""Instantaneous natural frequencies (rad/s) of the linkage subsystem over one period.
 
     The eigenvalues of :math:`\mathbf K(t)\boldsymbol\phi = \omega^2\mathbf M(t)
-    \boldsymbol\phi` on the DOFs of :class:`fivebar.dynamics.LinkageDynamics` (the rotor
+    \boldsymbol\phi` on the DOFs of :class:`fivebar.model.dynamics.LinkageDynamics` (the rotor
     whirl modes, which do not couple, are left out) at the S equally spaced crank angles of the
-    problem (a :class:`fivebar.setup.Setup`, or a Params: S = ``params.steps_per_period``; its
+    problem (a :class:`fivebar.description.setup.Setup`, or a Params: S = ``params.steps_per_period``; its
     motors and mesh); they do not depend on the crank speed.  Shape (S, n_modes), ascending in
     each row; the means over axis 0 are the paper's (3.3).  Cached in memory.
     """
@@ -242,7 +242,7 @@ def spin_softening(setup: Setup | Params, n_modes: int = 4) -> NDArray:
     r"""The coefficients :math:`h_r = \bar H_{rr}/\Omega^2` of the kinematic stiffness (-).
 
     :math:`\mathbf H = \boldsymbol\Phi^\top\mathbf M\ddot{\boldsymbol\Phi}` of the
-    instantaneous modes (:attr:`fivebar.excitation.ModalBasis.kinematic_stiffness`), averaged
+    instantaneous modes (:attr:`fivebar.model.excitation.ModalBasis.kinematic_stiffness`), averaged
     over the period and divided by :math:`\Omega^2` (it is proportional to it at constant crank
     speed).  About -1 for a mode whose shape turns with the cranks.  ``setup`` as for
     :func:`linkage_frequencies`.
@@ -295,11 +295,11 @@ def resonance_table(
     r"""The resonance conditions of section 3 that hold for the linkage at the problem's crank speed.
 
     ``resonance_table(setup.replace(crank_speed_rpm=600))``; ``setup`` a
-    :class:`fivebar.setup.Setup` (its crank speed, S, motors, mesh) or a Params (``Setup(params)``).
+    :class:`fivebar.description.setup.Setup` (its crank speed, S, motors, mesh) or a Params (``Setup(params)``).
 
     Natural frequencies: the means (3.3) of the ``n_modes`` lowest instantaneous frequencies of
     the linkage subsystem (:func:`linkage_frequencies`).  Excitations: the frequencies of
-    :func:`fivebar.excitation.excitation_frequencies` that drive the linkage (equal ones merged,
+    :func:`fivebar.model.excitation.excitation_frequencies` that drive the linkage (equal ones merged,
     e.g. "nu1=nu2=nu3"); ``motor_fields`` adds the motors' field frequencies (which drive only
     the decoupled rotors).  ``harmonics`` defaults to ``params.fourier_terms``.
     ``frequencies="effective"`` uses :func:`effective_frequencies` (spin softening) instead of
@@ -342,7 +342,7 @@ def resonance_speeds(
     (:func:`effective_frequencies`), which also adds, for :math:`h_r < 0`, the speed
     :math:`\bar\omega_r/\sqrt{-h_r}` at which the mode's effective stiffness vanishes (type
     "divergence").  ``setup``: the problem (its S, motors and mesh; its speed is not used), a
-    :class:`fivebar.setup.Setup` or a Params.
+    :class:`fivebar.description.setup.Setup` or a Params.
 
     Returns
     -------
@@ -396,7 +396,7 @@ def resonance_speeds(
 @dataclass(frozen=True)
 class CampbellData:
     """The numbers of a Campbell diagram (:func:`campbell_data`); draw with
-    :func:`fivebar.plotting.campbell_plot`.
+    :func:`fivebar.book.plotting.campbell_plot`.
 
     Attributes
     ----------
@@ -451,9 +451,9 @@ def campbell_data(
 ) -> CampbellData:
     """Natural frequencies against crank speed, with the lines k Omega: the numbers.
 
-    ``cd = campbell_data(setup, speeds)``; ``fivebar.plotting.campbell_plot(cd)`` draws them.
+    ``cd = campbell_data(setup, speeds)``; ``fivebar.book.plotting.campbell_plot(cd)`` draws them.
     The frequencies over a turn come from :func:`linkage_frequencies` (the S samples of the
-    problem, a :class:`fivebar.setup.Setup` or a Params) and do not depend on the speed;
+    problem, a :class:`fivebar.description.setup.Setup` or a Params) and do not depend on the speed;
     ``harmonics`` is m (default ``params.fourier_terms``).
     """
     s = as_setup(setup)
@@ -478,7 +478,7 @@ def campbell_diagram(
     effective: bool = True,
 ) -> plt.Axes:
     """Campbell diagram in one call: :func:`campbell_data` drawn by
-    :func:`fivebar.plotting.campbell_plot` (see both).  Returns the matplotlib Axes."""
+    :func:`fivebar.book.plotting.campbell_plot` (see both).  Returns the matplotlib Axes."""
     from ..book.plotting import campbell_plot
 
     data = campbell_data(setup, speeds_rpm, n_modes=n_modes, harmonics=harmonics)

@@ -2,15 +2,15 @@ r"""One result type for the linkage's elastic motion in time.
 
 A :class:`Response` holds the samples of a motion of the linkage subsystem of (2.7): the
 times ``t``, the elastic displacements ``u`` and velocities ``v`` of the kept DOFs, and the
-:class:`~fivebar.dynamics.LinkageDynamics` they belong to, and reads them as an engineer
+:class:`~fivebar.model.dynamics.LinkageDynamics` they belong to, and reads them as an engineer
 does: the displacement of a point of a link (:meth:`Response.deflection_mm`, the midpoint
 :meth:`Response.midpoint_mm` that Figure 6 shows), its peak-to-peak value, the peak bending
 stress of every link, a plot.  Every computation in time returns one, as python-control's
 ``TimeResponseData`` serves every simulation:
 
-* the periodic steady state (:func:`fivebar.steady.shooting`, :func:`fivebar.steady.march`,
-  :func:`fivebar.steady.steady_state`, a point of a branch): a
-  :class:`fivebar.steady.SteadyState`, a Response with the Floquet data, accuracy, note and
+* the periodic steady state (:func:`fivebar.analyses.steady.shooting`, :func:`fivebar.analyses.steady.march`,
+  :func:`fivebar.analyses.steady.steady_state`, a point of a branch): a
+  :class:`fivebar.analyses.steady.SteadyState`, a Response with the Floquet data, accuracy, note and
   validity of the orbit;
 * a transient from a given state (:func:`transient`): the Newmark march without the
   periodicity condition;
@@ -18,11 +18,11 @@ stress of every link, a plot.  Every computation in time returns one, as python-
 * scipy's implicit Radau integrator on the first-order form of (2.7) (:func:`radau`), the
   independent reference of the Newmark solution;
 * the multiple-scales first approximation (3.6)-(3.7)
-  (:class:`fivebar.linkage_multiscale.MultipleScalesResponse`).
+  (:class:`fivebar.analyses.linkage_multiscale.MultipleScalesResponse`).
 
 A Response can also be built from any displacement field of the kept DOFs:
 ``Response(dyn, t, u, v, "modal quasi-static")``.  The multibody model's result
-(:class:`fivebar.multibody.MultibodySteadyState`) has the same accessor names.
+(:class:`fivebar.analyses.multibody.MultibodySteadyState`) has the same accessor names.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ class Response:
     Attributes
     ----------
     dynamics
-        The :class:`~fivebar.dynamics.LinkageDynamics` whose kept DOFs ``u`` and ``v`` are.
+        The :class:`~fivebar.model.dynamics.LinkageDynamics` whose kept DOFs ``u`` and ``v`` are.
     t
         Times (s) of the N samples.
     u, v
@@ -69,7 +69,7 @@ class Response:
         The time integrator (None where none was used).
     solver
         The integrator's own record, where there is one (the
-        :class:`fivebar.newmark.NewmarkResult` of a transient, with its Newton iterations per
+        :class:`fivebar.numerics.newmark.NewmarkResult` of a transient, with its Newton iterations per
         step; scipy's ``OdeResult`` of :func:`radau`), else None.
     """
 
@@ -85,7 +85,7 @@ class Response:
     def __post_init__(self) -> None:
         if not isinstance(self.dynamics, LinkageDynamics):
             raise InputError(f"dynamics = {type(self.dynamics).__name__} is not allowed: give a "
-                             "fivebar.dynamics.LinkageDynamics (Setup(...).dynamics())")
+                             "fivebar.model.dynamics.LinkageDynamics (Setup(...).dynamics())")
         n = self.dynamics.n
         self.t = array("t", self.t, shape=(None,))
         N = len(self.t)
@@ -204,7 +204,7 @@ class Response:
 
     def plot(self, links=None, direction: str = "transverse", ax=None, **kwargs):
         """Draw the midpoint displacements against the crank angle
-        (:func:`fivebar.plotting.response_plot`); returns the matplotlib Axes."""
+        (:func:`fivebar.book.plotting.response_plot`); returns the matplotlib Axes."""
         from ..book.plotting import response_plot
 
         return response_plot(self, links, direction, ax, **kwargs)
@@ -244,20 +244,20 @@ def transient(
     Parameters
     ----------
     setup
-        The problem, a :class:`fivebar.setup.Setup` (its S and scheme, ...) or a Params
+        The problem, a :class:`fivebar.description.setup.Setup` (its S and scheme, ...) or a Params
         (``Setup(params)``).
     periods
         Periods to integrate (S steps each).
     u0, v0
         The state at t = 0 (default: rest).
     newton
-        "full" or "modified" Newton iterations in each step (:func:`fivebar.newmark.integrate`).
+        "full" or "modified" Newton iterations in each step (:func:`fivebar.numerics.newmark.integrate`).
 
     Returns
     -------
     Response
         ``method == "transient"``, ``periods * S + 1`` samples; ``solver`` is the
-        :class:`~fivebar.newmark.NewmarkResult`.
+        :class:`~fivebar.numerics.newmark.NewmarkResult`.
     """
     periods = number("periods", periods, integer=True, low=1, high=MAX_TRANSIENT_PERIODS)
     dyn, scheme, _ = _resolve(setup)
@@ -275,7 +275,7 @@ def quasi_static(setup: Setup | Params, t: ArrayLike | None = None) -> Response:
     ``t`` None: at the S step times and the period's end (S + 1 samples, the last equal to the
     first), from the sampled matrices, with the velocity by the periodic central difference
     over the step (second order in the step, as the quasi-static start of
-    :func:`fivebar.steady.shooting`); else at the times ``t`` (s), with the velocity by a
+    :func:`fivebar.analyses.steady.shooting`); else at the times ``t`` (s), with the velocity by a
     central difference over a millionth of the period.  ``method == "quasi-static"``.
     """
     dyn = _resolve(setup)[0]
@@ -317,7 +317,7 @@ def radau(
     Parameters
     ----------
     setup
-        The problem, a :class:`fivebar.setup.Setup` or a Params (``Setup(params)``).
+        The problem, a :class:`fivebar.description.setup.Setup` or a Params (``Setup(params)``).
     t
         Increasing sample times (s), at least two; the integration runs from ``t[0]`` to ``t[-1]``.
     u0, v0

@@ -23,8 +23,8 @@ even number of steps their multiplier approaches :math:`+1` and :math:`\mathbf I
 Newton step is therefore solved in the least-squares sense, and damped: a step that does not
 reduce the periodicity residual is halved.  Worse, at S = 100 the paper's rule has an unstable
 discrete orbit (errata E26), so the default scheme is the parameter file's dissipative
-generalised-alpha method at S = 800 (:class:`fivebar.setup.Setup`); the paper's rule is
-:data:`fivebar.setup.PAPER_SCHEME`.  Errors and unstable results name the scheme and the remedy.
+generalised-alpha method at S = 800 (:class:`fivebar.description.setup.Setup`); the paper's rule is
+:data:`fivebar.description.setup.PAPER_SCHEME`.  Errors and unstable results name the scheme and the remedy.
 
 **Cost.**  Shooting factorises its Jacobian once and reuses it (the chord method; for the
 linear model one period with the monodromy matrix and one without reach the orbit).  Above
@@ -85,14 +85,14 @@ ACCURACY_LIMIT = 0.01
 
 @dataclass
 class SteadyState(Response):
-    """One steady period of the linkage's elastic response: a :class:`fivebar.response.Response`
+    """One steady period of the linkage's elastic response: a :class:`fivebar.analyses.response.Response`
     (``t``, ``u``, ``v``, ``dynamics``, ``midpoint_mm``, ``deflection_mm``, ``peak_to_peak_mm``,
     ``bending_stress``, ``plot``) with the data of the periodic orbit.
 
     Attributes
     ----------
     dynamics
-        The :class:`~fivebar.dynamics.LinkageDynamics` that was solved.
+        The :class:`~fivebar.model.dynamics.LinkageDynamics` that was solved.
     t
         Times (s) of the S + 1 samples, from crank angle 0 to one period.
     u, v
@@ -159,7 +159,7 @@ class SteadyState(Response):
     @property
     def explained(self):
         """Where the orbit is unstable and ``steady_state(..., explain=True)`` was asked: what a
-        march from it settles on (a :class:`fivebar.branches.SpeedReport`: its ``kind``,
+        march from it settles on (a :class:`fivebar.analyses.branches.SpeedReport`: its ``kind``,
         ``text``, the orbit ``found``); else None."""
         return self._cache.get("explained")
 
@@ -172,7 +172,7 @@ class SteadyState(Response):
         largest midpoint deflection relative to the chord, over the period, divided by the link's
         length) and its ``"deflection link"``, ``"deflection limit"`` (:data:`DEFLECTION_LIMIT`,
         the small-deflection range); ``"speed ratio"`` and ``"period (s)"`` (the drive is
-        periodic: :func:`fivebar.setup.drive_period`); ``"S error estimate"``, the relative change
+        periodic: :func:`fivebar.description.setup.drive_period`); ``"S error estimate"``, the relative change
         of the transverse midpoint deflections of L2 and L3 from S to ``"S compared"`` (from
         ``steady_state(..., tol=...)``, or computed here at 2 S where it is cheap: the linear
         model up to 32 DOFs; else None until :meth:`check_accuracy`); ``"valid"`` (stress
@@ -274,7 +274,7 @@ def _initial_state(dyn: LinkageDynamics) -> tuple[NDArray, NDArray]:
     """Quasi-static state at t = 0: K u + f_nl(u) = F, v = d/dt of it (central difference).
 
     With the nonlinearity the state solves the nonlinear static equation
-    (:meth:`~fivebar.dynamics.LinkageDynamics.static_equilibrium`), not the linear K^-1 F: for
+    (:meth:`~fivebar.model.dynamics.LinkageDynamics.static_equilibrium`), not the linear K^-1 F: for
     a thin section (2 mm side in plane) the linear deflection lies where f_nl is a hundred
     times the load, and the first step's Newton iteration diverged from it.
     """
@@ -295,7 +295,7 @@ def _period(dyn, u0, v0, scheme, store="all", sensitivity=False, rtol=1e-10, max
     Newton's iteration of each step: for a small model (up to :data:`_DENSE_MAX_DOFS` DOFs)
     full Newton first (the step's tangent refactorised per iteration: about 1.3 against 3.1
     iterations per step on the default orientation's orbit at S = 100, from the extrapolated
-    first iterate of :func:`fivebar.newmark.integrate`, at the same cost when the linear
+    first iterate of :func:`fivebar.numerics.newmark.integrate`, at the same cost when the linear
     tangent's factors are cached and less where they are not, as at every new speed of a
     continuation; and robust to the large updates of shooting), modified Newton (the cached
     linear tangent) if that fails: from rest the excited stiff modes make the history rough,
@@ -331,10 +331,10 @@ def march(
 ) -> SteadyState:
     """March period by period until the state repeats to ``tol`` (relative, energy norm).
 
-    ``setup`` is the problem, a :class:`fivebar.setup.Setup` (its S, scheme, ...) or a
-    :class:`fivebar.params.Params` (``Setup(params)``).  ``u0, v0`` default to rest (zeros).  Raises :class:`SteadyStateError` after
+    ``setup`` is the problem, a :class:`fivebar.description.setup.Setup` (its S, scheme, ...) or a
+    :class:`fivebar.description.params.Params` (``Setup(params)``).  ``u0, v0`` default to rest (zeros).  Raises :class:`SteadyStateError` after
     ``max_periods`` periods, naming the last relative change, and a
-    :class:`~fivebar.newmark.NewtonConvergenceError` naming the scheme and the remedy if a
+    :class:`~fivebar.numerics.newmark.NewtonConvergenceError` naming the scheme and the remedy if a
     step fails.
     """
     tol = number("tol", tol, low=0.0, low_open=True)
@@ -384,8 +384,8 @@ def shooting(
 ) -> SteadyState:
     r"""Damped Newton's method on the periodicity condition, with the Newmark monodromy matrix.
 
-    ``setup`` is the problem, a :class:`fivebar.setup.Setup` (its S, scheme, ...) or a
-    :class:`fivebar.params.Params` (``Setup(params)``).  ``u0, v0`` default to the quasi-static state at t = 0.  Converged when the relative
+    ``setup`` is the problem, a :class:`fivebar.description.setup.Setup` (its S, scheme, ...) or a
+    :class:`fivebar.description.params.Params` (``Setup(params)``).  ``u0, v0`` default to the quasi-static state at t = 0.  Converged when the relative
     periodicity residual (energy norm) is below ``tol``.  A Newton step that does not reduce
     the residual (or whose period fails to integrate) is halved, up to 10 times.  The returned
     state carries the Floquet multipliers of the orbit.
@@ -569,7 +569,7 @@ def _monodromy_period(dyn: LinkageDynamics, x: NDArray, scheme: Scheme, V: NDArr
 
 def _consistent_directions(dyn: LinkageDynamics, u0: NDArray) -> NDArray:
     """d(u0, v0, a0) / d(u0, v0), (3 n, 2 n), with a0 = M^-1 (F - C v0 - K u0 - f_nl(u0)) at
-    t = 0 (as :func:`~fivebar.newmark.integrate` starts)."""
+    t = 0 (as :func:`~fivebar.numerics.newmark.integrate` starts)."""
     sd = dyn.step_data
     M, C, K = sd.M[0], sd.C[0], sd.K[0]
     if dyn.nonlinear is not None:
@@ -665,9 +665,9 @@ def steady_state(
     Parameters
     ----------
     setup
-        The problem: a :class:`fivebar.setup.Setup` (crank speed, S, motors, nonlinearity,
+        The problem: a :class:`fivebar.description.setup.Setup` (crank speed, S, motors, nonlinearity,
         mesh, scheme; the paper's rule is ``Setup(params, scheme=fivebar.PAPER_SCHEME)``), or a
-        :class:`fivebar.params.Params` meaning ``Setup(params)`` (every setting from the
+        :class:`fivebar.description.params.Params` meaning ``Setup(params)`` (every setting from the
         parameter file: S = ``steps_per_period``, the ``[simulation] scheme``).
     method
         "shooting" (damped Newton on periodicity, with Floquet multipliers) or "march" (period
@@ -686,8 +686,8 @@ def steady_state(
         Where the orbit is unstable (``res.stable`` False, ``res.note`` says so), also find
         what the linkage does there: a march of 400 periods from the orbit, disturbed along
         its most unstable Floquet direction, names a period-2 orbit, another period-1 orbit,
-        no periodic motion or a divergence (:func:`fivebar.branches.explain_steady`, the report of
-        :func:`fivebar.branches.describe_speed`, which with a followed branch also names the
+        no periodic motion or a divergence (:func:`fivebar.analyses.branches.explain_steady`, the report of
+        :func:`fivebar.analyses.branches.describe_speed`, which with a followed branch also names the
         nearest bifurcation).  The report is ``res.explained`` and ends ``res.note``.  Default False: an unstable orbit costs nothing
         more (its note says how to ask).  Needs ``method="shooting"`` (the multipliers);
         computes the multipliers of a nonlinear orbit (one period with the monodromy matrix).

@@ -1,7 +1,7 @@
 r"""Steady-state amplitude against crank speed: the response side of the Campbell diagram.
 
 For each crank speed :math:`\Omega` the periodic steady state of (2.7) is found by shooting
-(:func:`fivebar.steady.shooting`, Newton on periodicity with the Newmark monodromy matrix,
+(:func:`fivebar.analyses.steady.shooting`, Newton on periodicity with the Newmark monodromy matrix,
 S steps per period) and the peak-to-peak transverse displacement of the midpoints of L2 and L3
 over the period is recorded, with the largest Floquet multiplier (above 1: the orbit is
 unstable, e.g. a parametric resonance).
@@ -11,9 +11,9 @@ The inertial load grows with :math:`\Omega^2` (at constant crank speed
 *dynamic amplification* divides it by the quasi-static amplitude at the same speed (the
 peak-to-peak of :math:`\mathbf K(t)^{-1}\mathbf F(t)`, itself exactly proportional to
 :math:`\Omega^2`): it is 1 at low speed and peaks at the resonances that
-:mod:`fivebar.resonance` predicts.
+:mod:`fivebar.analyses.resonance` predicts.
 
-The integrator and S are the set-up's (:class:`fivebar.setup.Setup`: the parameter file's
+The integrator and S are the set-up's (:class:`fivebar.description.setup.Setup`: the parameter file's
 generalised-alpha scheme, errata E26: the paper's average-acceleration rule at S = 100 has an
 unstable discrete periodic orbit for this model).  A sweep over many speeds may use a smaller
 S to save time (``Setup(params, steps_per_period=100)``: within about 1 % up to 400 r/min),
@@ -196,10 +196,10 @@ def sweep_point(
     ``crank frequency (Hz)``, for every link
     ``"<link> p2p (mm)"``, ``"<link> quasi-static p2p (mm)"``, ``"<link> amplification"``,
     ``max |multiplier|`` (largest Floquet multiplier), ``periods`` (shooting cost), and the
-    validity of the result (:attr:`fivebar.steady.SteadyState.validity`): ``peak stress (MPa)``
+    validity of the result (:attr:`fivebar.analyses.steady.SteadyState.validity`): ``peak stress (MPa)``
     (bending, the largest over the links), ``stress / yield`` (the file's ``yield_stress``),
     ``deflection / length`` (midpoint against chord, the largest over the links; the model's
-    range is :data:`fivebar.steady.DEFLECTION_LIMIT`), ``period (s)`` (the drive's period: a
+    range is :data:`fivebar.analyses.steady.DEFLECTION_LIMIT`), ``period (s)`` (the drive's period: a
     speed ratio that gives none is refused), ``valid`` (both within range) and, with
     ``accuracy=True``, ``S error estimate`` (S against 2 S; one more steady state per speed).
     A top-level function, so that it can run in worker processes.
@@ -263,7 +263,7 @@ def speed_sweep(
         Links whose midpoint is recorded; ``None``: the description's couplers (the links
         between two pins: L2 and L3 of the five-bar, as Figure 6).
     direction : str
-        As :meth:`fivebar.response.Response.midpoint_mm` ("transverse", "longitudinal", "chord").
+        As :meth:`fivebar.analyses.response.Response.midpoint_mm` ("transverse", "longitudinal", "chord").
     executor : concurrent.futures.Executor, optional
         Runs the speeds in parallel (``submit``); None runs them here, one after the other.
     progress : bool
@@ -278,7 +278,7 @@ def speed_sweep(
     pandas.DataFrame
         One row per speed, in the order given; columns of :func:`sweep_point`, with the
         validity of each row (``valid`` False where the stress is above yield or the deflection
-        past the small-deflection range; one :class:`fivebar.steady.ValidityWarning` then says
+        past the small-deflection range; one :class:`fivebar.analyses.steady.ValidityWarning` then says
         how many rows).
     """
     try:

@@ -6,7 +6,7 @@ few knobs the chapter turns::
 
     PARAMS_FILES = []          # your TOML files over the book's, e.g. ["mine.toml"]
 
-    params = fivebar.chapter.load(PARAMS_FILES)
+    params = fivebar.book.chapter.load(PARAMS_FILES)
 
 Everything below is computed from ``params``.  A chapter checks two kinds of statements:
 

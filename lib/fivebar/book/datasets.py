@@ -6,9 +6,9 @@ Four tables, each computed by the library (never copied from a notebook):
   (Figure 6: transverse, longitudinal and chord deflection, µm, against the crank angle);
 * :func:`frequencies_table`: the lowest natural frequencies along the cycle (Hz);
 * :func:`resonance_speeds_table`: the crank speeds at which the resonance conditions of section 3
-  hold, from :func:`fivebar.resonance.resonance_speeds`;
+  hold, from :func:`fivebar.analyses.resonance.resonance_speeds`;
 * :func:`sweep_table`: the steady-state midpoint amplitude over a range of crank speeds,
-  from :func:`fivebar.sweep.speed_sweep`.
+  from :func:`fivebar.analyses.sweep.speed_sweep`.
 
 :func:`write_datasets` writes them with a provenance line at the top of each file
 (``# fivebar <version> | parameters <file> sha256 <hash> | <how> | <title> | source <hash> |
@@ -84,8 +84,8 @@ def figure6_curves(params: Params) -> pd.DataFrame:
     """Midpoint displacements (µm) of L2 and L3 over one steady period (Figure 6).
 
     Columns ``crank angle (deg)`` and ``<link> <direction> (um)`` for L2, L3 and the
-    directions of :meth:`fivebar.response.Response.midpoint_mm` (transverse, longitudinal,
-    chord).  The steady state is :func:`fivebar.steady.steady_state` of
+    directions of :meth:`fivebar.analyses.response.Response.midpoint_mm` (transverse, longitudinal,
+    chord).  The steady state is :func:`fivebar.analyses.steady.steady_state` of
     ``Setup(params, steps_per_period=FIGURE6_STEPS)`` (the data set's fine step).
     """
     from ..description.setup import Setup
@@ -118,7 +118,7 @@ def frequencies_table(params: Params, angles_deg=FREQUENCY_ANGLES_DEG, n_modes: 
 def resonance_speeds_table(params: Params) -> pd.DataFrame:
     """Crank speeds (r/min) at which the conditions of section 3 hold exactly.
 
-    :func:`fivebar.resonance.resonance_speeds` with its defaults (the paper's mean frequencies
+    :func:`fivebar.analyses.resonance.resonance_speeds` with its defaults (the paper's mean frequencies
     (3.3), three modes, ``params.fourier_terms`` harmonics).
     """
     from ..analyses.resonance import resonance_speeds
@@ -129,9 +129,9 @@ def resonance_speeds_table(params: Params) -> pd.DataFrame:
 def sweep_table(params: Params, speeds_rpm=SWEEP_SPEEDS_RPM) -> pd.DataFrame:
     """Steady-state peak-to-peak midpoint amplitudes of L2, L3 over crank speeds.
 
-    :func:`fivebar.sweep.speed_sweep` of ``Setup(params, nonlinear=False)`` (the linear model,
+    :func:`fivebar.analyses.sweep.speed_sweep` of ``Setup(params, nonlinear=False)`` (the linear model,
     with the motors, the parameter file's S and scheme): the columns of
-    :func:`fivebar.sweep.sweep_point`, whose validity columns (``valid``, ``stress / yield``, ``deflection / length``) mark the rows outside the
+    :func:`fivebar.analyses.sweep.sweep_point`, whose validity columns (``valid``, ``stress / yield``, ``deflection / length``) mark the rows outside the
     model's range (the sweep's warning is not repeated).
     """
     from concurrent.futures import ProcessPoolExecutor
@@ -167,16 +167,16 @@ DATASETS: dict[str, Dataset] = {
     for d in (
         Dataset("figure6_curves", "Figure 6: midpoint displacements of L2 and L3 over one period (µm)",
                 "09_figure6", figure6_curves,
-                f"fivebar.datasets.figure6_curves(params): steady_state(Setup(params, steps_per_period={FIGURE6_STEPS}))"),
+                f"fivebar.book.datasets.figure6_curves(params): steady_state(Setup(params, steps_per_period={FIGURE6_STEPS}))"),
         Dataset("natural_frequencies", "Six lowest natural frequencies along the cycle (Hz), every degree",
                 "05_modes", frequencies_table,
-                "fivebar.datasets.frequencies_table(params): frequencies_along_cycle(params, 0..360 deg, n_modes=6)"),
+                "fivebar.book.datasets.frequencies_table(params): frequencies_along_cycle(params, 0..360 deg, n_modes=6)"),
         Dataset("resonance_speeds", "Crank speeds at which the resonance conditions of section 3 hold",
                 "07_excitation", resonance_speeds_table,
-                "fivebar.datasets.resonance_speeds_table(params): resonance_speeds(params)"),
+                "fivebar.book.datasets.resonance_speeds_table(params): resonance_speeds(params)"),
         Dataset("speed_sweep", "Steady-state midpoint amplitude of L2, L3 over 600-3300 r/min",
                 "07_excitation", sweep_table,
-                "fivebar.datasets.sweep_table(params): speed_sweep(Setup(params, nonlinear=False), linspace(600, 3300, 120))"),
+                "fivebar.book.datasets.sweep_table(params): speed_sweep(Setup(params, nonlinear=False), linspace(600, 3300, 120))"),
     )
 }
 
@@ -312,5 +312,5 @@ def read_dataset(path: str | Path) -> tuple[str, pd.DataFrame]:
     _, damage = _check_file(path)
     if damage is not None:
         raise InputError(f"path = {str(path)!r} is damaged: {damage}; write it again "
-                         "(fivebar.datasets.write_datasets(..., force=True))")
+                         "(fivebar.book.datasets.write_datasets(..., force=True))")
     return first, pd.read_csv(path, comment="#")

@@ -9,7 +9,7 @@ Okabe-Ito palette.  :func:`figsize` sizes a figure of stacked panels for the col
 :data:`LINK_COLORS` gives each link of Figure 1 the same colour in every chapter;
 :func:`draw_linkage` draws the five-bar of Figure 1 in one configuration (joints A..E, links
 L1..L5, the lumped masses m01 at B and m02 at C), computed by
-:func:`fivebar.kinematics.positions`.
+:func:`fivebar.model.kinematics.positions`.
 """
 
 from __future__ import annotations
@@ -291,7 +291,7 @@ def draw_linkage(
         Crank angles (rad) of AB and ED: one configuration, scalars (``theta1`` alone for a
         linkage with one driven crank).
     mode
-        Assembly mode of :func:`fivebar.kinematics.positions`.
+        Assembly mode of :func:`fivebar.model.kinematics.positions`.
     color
         One colour for all moving links; ``None`` uses :data:`LINK_COLORS`.
     lw, alpha, zorder
@@ -318,7 +318,7 @@ def draw_linkage(
     ------
     ValueError
         If ``theta1`` or ``theta4`` is not a single finite number, or the mode is not +-1.
-    fivebar.kinematics.GeometryError
+    fivebar.model.kinematics.GeometryError
         If the loop cannot close at these crank angles.
     """
     th = [_scalar("theta1", theta1)] + ([] if theta4 is None else [_scalar("theta4", theta4)])
@@ -385,13 +385,13 @@ def draw_linkage(
 
 
 def campbell_plot(data, ax=None, *, mark: bool = True, effective: bool = True, legend: str | None = "below"):
-    r"""Draw a Campbell diagram from :func:`fivebar.resonance.campbell_data`.
+    r"""Draw a Campbell diagram from :func:`fivebar.analyses.resonance.campbell_data`.
 
     ``ax = campbell_plot(campbell_data(params, speeds))``.  Each mode is a band from the lowest
     to the highest instantaneous frequency over a turn with its mean (3.3) as a line; the load
     harmonics :math:`k\Omega` (k = 1..m) are straight lines through the origin; ``mark``
     circles their crossings with each mean (the primary and superharmonic resonance speeds of
-    :func:`fivebar.resonance.resonance_speeds`).  ``effective`` adds the effective frequencies
+    :func:`fivebar.analyses.resonance.resonance_speeds`).  ``effective`` adds the effective frequencies
     :math:`\sqrt{\bar\omega_r^2 + h_r\Omega^2}` as dashed curves, their crossings as filled
     dots.  In the book's style: axis labels from :data:`LABELS`, text at :data:`MIN_FONT_PT`,
     the legend outside the data (``legend`` = ``"below"`` or ``"right"``, see
@@ -440,10 +440,10 @@ def response_plot(response, links=None, direction: str = "transverse", ax=None, 
     crank angle.
 
     ``response.plot()`` calls it.  ``response`` is anything with ``params``, ``method``,
-    ``crank_angle_deg`` and ``midpoint_mm`` (a :class:`fivebar.response.Response`, a
-    :class:`fivebar.steady.SteadyState`, a :class:`fivebar.multibody.MultibodySteadyState`);
+    ``crank_angle_deg`` and ``midpoint_mm`` (a :class:`fivebar.analyses.response.Response`, a
+    :class:`fivebar.analyses.steady.SteadyState`, a :class:`fivebar.analyses.multibody.MultibodySteadyState`);
     ``links`` default to the description's couplers (L2 and L3 of the five-bar, as Figure 6);
-    ``direction`` as :meth:`fivebar.response.Response.midpoint_mm`; ``kwargs`` go to
+    ``direction`` as :meth:`fivebar.analyses.response.Response.midpoint_mm`; ``kwargs`` go to
     ``Axes.plot``.  Returns the matplotlib Axes.
     """
     import matplotlib.pyplot as plt

@@ -151,14 +151,14 @@ def assumptions_table(params: Params | None = None, effects: bool = False) -> pd
     effects
         Add a column ``effect on Figure 6``: how much the peak-to-peak transverse midpoint
         deflections of L2 and L3 move when the assumption takes each alternative of
-        :data:`fivebar.figure6.ASSUMPTION_VARIANTS` (a few seconds of computation).
+        :data:`fivebar.analyses.figure6.ASSUMPTION_VARIANTS` (a few seconds of computation).
 
     Returns
     -------
     pandas.DataFrame
         Columns ``key`` (the name in ``[assumptions]``), ``value`` (a number in the unit of
         the ``unit`` column, or text), ``unit``, ``reason``, ``alternative``; in the order of
-        the parameter schema (:mod:`fivebar.params`).  An entry overridden without a reason shows an empty reason.
+        the parameter schema (:mod:`fivebar.description.params`).  An entry overridden without a reason shows an empty reason.
     """
     params = load_params() if params is None else params
     rows = []

@@ -117,7 +117,7 @@ class Drive:
     ``function(t, Omega) -> (theta, omega, alpha)`` (arrays shaped like ``t``; it should be
     periodic in :math:`2\pi/\Omega` up to whole turns for a periodic motion, and a function
     of :math:`\Omega t` only, as the Fourier law is: the sampled matrices of
-    :class:`fivebar.dynamics.LinkageDynamics` are shared between speeds).  A function cannot
+    :class:`fivebar.model.dynamics.LinkageDynamics` are shared between speeds).  A function cannot
     be written in TOML: set it with ``dataclasses.replace`` on the linkage and the parameter
     set (``Params.replace`` rebuilds the linkage from the file's table and drops it).
     """

@@ -242,7 +242,7 @@ class Params:
     Build it with :func:`load_params`; derive variants with :meth:`replace`.  ``meta`` maps
     each dotted key (``"geometry.L1"``) to its provenance from the TOML file (printed value
     and source, or the assumption's reason and alternative).  ``linkage`` is the linkage
-    description (:class:`fivebar.linkage.Linkage`) of the ``[linkage]`` section.  The entries
+    description (:class:`fivebar.description.linkage.Linkage`) of the ``[linkage]`` section.  The entries
     of ``[geometry]`` and ``[masses]`` that the description refers to are attributes too
     (``params.L5``, ``params.m01`` for the paper's file), and so is each link's length by the
     link's name (``params.L2``).  ``motors`` maps each motor section of the file to its

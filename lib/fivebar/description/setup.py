@@ -1,14 +1,14 @@
 """One linkage set-up: parameters, crank speed, S, motors, nonlinearity, mesh and scheme.
 
-The problem object.  Every analysis of the linkage (:func:`fivebar.steady.steady_state`,
-:func:`fivebar.sweep.speed_sweep`, the resonance tables, the multiple scales, the control
-simulation, the continuation) takes a :class:`Setup` or a :class:`~fivebar.params.Params`
+The problem object.  Every analysis of the linkage (:func:`fivebar.analyses.steady.steady_state`,
+:func:`fivebar.analyses.sweep.speed_sweep`, the resonance tables, the multiple scales, the control
+simulation, the continuation) takes a :class:`Setup` or a :class:`~fivebar.description.params.Params`
 (meaning ``Setup(params)``; :func:`as_setup` turns it into one) and only options of its own: a
 field of the set-up given to an analysis as a keyword is refused (:func:`analysis`), so each
 default lives once.  A field left ``None`` takes the parameter file's entry
 (``Setup(params).steps_per_period == params.steps_per_period``), and the time integrator is
 built from the file's ``[simulation] scheme`` and ``rho_infinity`` (errata E26).
-:class:`~fivebar.dynamics.LinkageDynamics` samples a set-up's equation of motion
+:class:`~fivebar.model.dynamics.LinkageDynamics` samples a set-up's equation of motion
 (``setup.dynamics()``, built once).
 
 >>> s = Setup(load_params(), crank_speed_rpm=300)
@@ -111,7 +111,7 @@ class Setup:
     Attributes
     ----------
     params
-        The parameter set (:func:`fivebar.params.load_params`).
+        The parameter set (:func:`fivebar.description.params.load_params`).
     crank_speed_rpm
         Speed of both cranks (r/min); default ``params.crank_speed_rpm``.
     steps_per_period
@@ -160,7 +160,7 @@ class Setup:
         scheme = default_scheme(p) if self.scheme is None else self.scheme
         if not isinstance(scheme, Scheme):
             raise InputTypeError(
-                f"scheme must be a fivebar.schemes.Scheme (Newmark, HHT, GeneralizedAlpha), got {type(scheme).__name__}"
+                f"scheme must be a fivebar.numerics.schemes.Scheme (Newmark, HHT, GeneralizedAlpha), got {type(scheme).__name__}"
             )
         object.__setattr__(self, "crank_speed_rpm", rpm)
         object.__setattr__(self, "steps_per_period", S)
@@ -183,7 +183,7 @@ class Setup:
         return self.params.replace(**{"assumptions.crank_speed_rpm": self.crank_speed_rpm})
 
     def dynamics(self, keep: bool = True):
-        """The :class:`~fivebar.dynamics.LinkageDynamics` of this set-up, built once and kept in
+        """The :class:`~fivebar.model.dynamics.LinkageDynamics` of this set-up, built once and kept in
         the library's store (:mod:`fivebar.cache`): equal set-ups (the scheme aside, which the
         dynamics do not depend on) share one.  ``keep=False``: the stored one if there is one,
         else built and not stored, for a caller that keeps its own (the period map of a

@@ -1,12 +1,12 @@
-r"""The linkage's strain force (2.8) compiled: the element loop of :mod:`fivebar.nonlinear`.
+r"""The linkage's strain force (2.8) compiled: the element loop of :mod:`fivebar.model.nonlinear`.
 
 :func:`force` is the model's nonlinear force in the form the compiled time loop takes it
-(``fivebar._kernels.FORCE_SIG``: ``force(u, k, rdata, idata, f, Kt, tangent)``), its data in
+(``fivebar.numerics._kernels.FORCE_SIG``: ``force(u, k, rdata, idata, f, Kt, tangent)``), its data in
 two flat arrays made by :func:`pack` from the element geometry sampled at the S step times of
-a period (:meth:`fivebar.nonlinear.NonlinearForce.compiled`).  :func:`element_loop` is the
+a period (:meth:`fivebar.model.nonlinear.NonlinearForce.compiled`).  :func:`element_loop` is the
 element loop at one configuration; the tests hold it equal to the vectorised numpy force of
-:mod:`fivebar.nonlinear` to round-off, for every strain measure.  Loaded (and cached on disk)
-by :func:`fivebar._jitcache.import_cached`.
+:mod:`fivebar.model.nonlinear` to round-off, for every strain measure.  Loaded (and cached on disk)
+by :func:`fivebar.numerics._jitcache.import_cached`.
 """
 
 from __future__ import annotations
@@ -22,14 +22,14 @@ __all__ = ["element_loop", "force", "pack"]
 @njit(cache=True)
 def element_loop(u, Ge, ae, wE, idx, measure, f, Kt, tangent):
     r"""Internal nonlinear force ``f`` (n,) and, if ``tangent``, its Jacobian ``Kt`` (n, n),
-    element by element: the loop form of ``fivebar.nonlinear._force`` (see
-    :mod:`fivebar.nonlinear` for the formulas), at one configuration.
+    element by element: the loop form of ``fivebar.model.nonlinear._force`` (see
+    :mod:`fivebar.model.nonlinear` for the formulas), at one configuration.
 
     ``Ge`` (n_el, n_gauss, 8): slope rows :math:`\mathbf G_{ep}` in the element's global DOFs;
     ``ae`` (n_el, 8): stretch rows :math:`\mathbf a_e`; ``wE`` (n_el, n_gauss): EA times the
     Gauss weights; ``idx`` (n_el, 8): index of each element DOF in ``u``, or ``n`` for a DOF
     held at zero; ``measure``: the strain measure's index in
-    ``fivebar.nonlinear.STRAIN_MEASURES`` (0 literal, 1 corotated, 2 uniform).
+    ``fivebar.model.nonlinear.STRAIN_MEASURES`` (0 literal, 1 corotated, 2 uniform).
     """
     n = u.size
     nel, npts, _ = Ge.shape
@@ -161,5 +161,5 @@ def pack(Ge, ae, wE, idx, measure: int) -> tuple[np.ndarray, np.ndarray]:
     return rdata, idata
 
 
-#: Compiled when loaded (:func:`fivebar._jitcache.import_cached`): the signature the time loop calls.
+#: Compiled when loaded (:func:`fivebar.numerics._jitcache.import_cached`): the signature the time loop calls.
 __jit_signatures__ = {"force": (FORCE_SIG,)}

@@ -11,7 +11,7 @@ The paper assembles
 
 (section 2, after (2.8)) with hand-typed Boolean matrices :math:`\mathbf B_i` (A.12) and
 rotations :math:`\mathbf R_i` (A.11).  Here the B matrices are *derived* from the linkage
-description (:class:`fivebar.linkage.Linkage`): its chain of links, for the paper's five-bar
+description (:class:`fivebar.description.linkage.Linkage`): its chain of links, for the paper's five-bar
 A-B-C-D-E of links L1 (A to B), L2 (B to C), L3 (C to D), L4 (D to E), each cut into a chosen
 number of elements (the description's mesh, the paper's 1-2-2-1, by default), with these joints:
 

@@ -7,9 +7,9 @@ r"""The time-varying equation of motion (2.7) of the linkage over one period of 
 
 the kineto-elastodynamic equation: the elastic deflections :math:`\mathbf u` ride on the
 rigid motion prescribed by the crank laws and are driven by its inertia
-:math:`-\mathbf M\ddot{\mathbf u}_r` (:meth:`fivebar.assembly.Model.rigid_acceleration`);
+:math:`-\mathbf M\ddot{\mathbf u}_r` (:meth:`fivebar.model.assembly.Model.rigid_acceleration`);
 :math:`\mathbf f_{nl} = -\varepsilon` is the geometric nonlinearity (2.8)
-(:mod:`fivebar.nonlinear`).
+(:mod:`fivebar.model.nonlinear`).
 
 **What is left out, and why.**  The electromagnetic terms of (2.7),
 :math:`\mathbf K_0\mathbf u`, :math:`(\mathbf K^e_1 + \mathbf K^e_2)\mathbf e` and
@@ -39,7 +39,7 @@ with :math:`\mathbf M, \mathbf K, \boldsymbol\Phi, \omega_r` those of the instan
 :math:`\mathbf C(t) = \beta\mathbf K(t)`, :math:`\beta = 2\zeta/\omega_1` with
 :math:`\omega_1` the lowest frozen mode at the initial crank angles: mode :math:`r` gets
 :math:`\zeta\,\omega_r/\omega_1`, as the Kelvin-Voigt material damping of the multibody model
-(:mod:`fivebar.multibody`) gives it; the comparisons with that model use it.
+(:mod:`fivebar.analyses.multibody`) gives it; the comparisons with that model use it.
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ _STEP_TIMES = "dynamics.step_times"
 
 
 def _model(params: Params, elements_per_link, motors: bool) -> Model:
-    """:func:`fivebar.assembly.build_model`, built once per parameter set, mesh and motors (the
+    """:func:`fivebar.model.assembly.build_model`, built once per parameter set, mesh and motors (the
     model is not changed after it is built; the steady state to a tolerance builds one
     :class:`LinkageDynamics` per S)."""
     return STORE.get(("dynamics.model", params, elements_per_link, motors),
@@ -77,7 +77,7 @@ def _model(params: Params, elements_per_link, motors: bool) -> Model:
 
 
 def _nonlinear_force(params: Params, elements_per_link, motors: bool, keep: NDArray) -> NonlinearForce:
-    """The model's :class:`~fivebar.nonlinear.NonlinearForce` on the DOFs ``keep`` (those of
+    """The model's :class:`~fivebar.model.nonlinear.NonlinearForce` on the DOFs ``keep`` (those of
     the linkage subsystem, which the model fixes), built once per model like it."""
     return STORE.get(("dynamics.nonlinear_force", params, elements_per_link, motors),
                      lambda: NonlinearForce(_model(params, elements_per_link, motors), keep=keep))
@@ -92,7 +92,7 @@ def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
     """C = M Phi diag(2 zeta omega) Phi^T M for one frozen configuration (N s/m).
 
     ``M, K`` of shape ``(n, n)``, or stacks ``(..., n, n)`` of configurations (solved
-    together); the modes from :func:`fivebar.eigen.frozen_modes`, the library's one
+    together); the modes from :func:`fivebar.numerics.eigen.frozen_modes`, the library's one
     eigensolver.
     """
     M, K = np.asarray(M, float), np.asarray(K, float)
@@ -106,13 +106,13 @@ class LinkageDynamics:
     """Equation (2.7) of the linkage subsystem, sampled at the S steps of one period.
 
     ``dyn = LinkageDynamics(setup)`` (or ``setup.dynamics()``, the same built once and kept);
-    ``dyn.step_data`` feeds :func:`fivebar.newmark.integrate`, and ``dyn`` itself is a
-    :class:`fivebar.systems.SecondOrderSystem` (matrices at any time, nonlinear force).
+    ``dyn.step_data`` feeds :func:`fivebar.numerics.newmark.integrate`, and ``dyn`` itself is a
+    :class:`fivebar.numerics.systems.SecondOrderSystem` (matrices at any time, nonlinear force).
 
     Parameters
     ----------
     setup
-        The problem, a :class:`fivebar.setup.Setup` (its parameters, crank speed, S, motors,
+        The problem, a :class:`fivebar.description.setup.Setup` (its parameters, crank speed, S, motors,
         nonlinearity and mesh), or a Params meaning ``Setup(params)``.
     P
         Optional external force on the kept DOFs, a function of time ``t -> (n,)`` (N, N m).
@@ -169,7 +169,7 @@ class LinkageDynamics:
         scales with its square.  The cache key is the parameter set with the speed taken out,
         S, the mesh and the motors (no external force P); it holds the step data at 1 rad/s
         (read-only arrays), and this object's step data is that one at the speed
-        (:meth:`~fivebar.systems.PeriodicStepData.with_force`: the stored M, C, K themselves,
+        (:meth:`~fivebar.numerics.systems.PeriodicStepData.with_force`: the stored M, C, K themselves,
         checked once, and F scaled to the speed).
         """
         if self._P is not None or self.params.damping_model == "stiffness":
@@ -206,7 +206,7 @@ class LinkageDynamics:
         """The samples at S from those at 2 S (every other one) or at S / 2 (computing only the
         S / 2 new ones) when the cache holds them: the step times k T / S are the even ones
         of k T / (2 S), to the last bit (halving is exact), so halving or doubling S, as
-        :func:`fivebar.steady.steady_state` does to reach a tolerance, samples no time twice."""
+        :func:`fivebar.analyses.steady.steady_state` does to reach a tolerance, samples no time twice."""
         S = self.steps_per_period
         fine = STORE.lookup(key[:2] + (2 * S,) + key[3:], touch=False)
         if fine is not None:
@@ -282,7 +282,7 @@ class LinkageDynamics:
 
         omega_1 is the lowest frozen mode at the initial crank angles, as in the definition of
         the multibody model's Kelvin-Voigt damping time
-        (:func:`fivebar.multibody.multibody_steady_state`).
+        (:func:`fivebar.analyses.multibody.multibody_steady_state`).
         """
         p, k = self.params, self.keep
         M, K = self.model.matrices(p.theta1_0, p.theta4_0)
@@ -311,8 +311,8 @@ class LinkageDynamics:
 
     def compiled_nonlinear(self, step_data: PeriodicStepData):
         """The nonlinear force for the compiled time loop (the optional member of
-        :class:`fivebar.systems.SecondOrderSystem`): ``(force, rdata, idata)`` of
-        :meth:`fivebar.nonlinear.NonlinearForce.compiled`, sampled at the S step times; None when
+        :class:`fivebar.numerics.systems.SecondOrderSystem`): ``(force, rdata, idata)`` of
+        :meth:`fivebar.model.nonlinear.NonlinearForce.compiled`, sampled at the S step times; None when
         the model is linear or ``step_data`` does not sample this model's period at its step
         times (then the Python loop serves, with ``nonlinear``).
         """

@@ -701,7 +701,7 @@ def net_rotor_stiffness(
 ) -> NDArray[np.float64]:
     r"""Eigenvalues of the rotor's transverse stiffness :math:`\bar K_{11} + \bar K_{12}(t)` (N/m).
 
-    :math:`\bar K_{11}` is the shaft stiffness of :func:`fivebar.elements.motor_element`.  A
+    :math:`\bar K_{11}` is the shaft stiffness of :func:`fivebar.model.elements.motor_element`.  A
     negative eigenvalue means the rotor is statically unstable at that instant: the magnetic
     pull outgrows the shaft's restoring force.
 

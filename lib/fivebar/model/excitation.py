@@ -30,10 +30,10 @@ least common multiple of their periods), not a common multiple.  We read the gro
 * :math:`f = 4, 5`: the rotating eccentricity :math:`\bar{\mathbf e}(t)` of each rotor;
 * :math:`f = 6, 7`: the field stiffness :math:`\bar{\mathbf K}_{12}(t)` of each motor (the
   fields turn at :math:`\omega_0 = \omega_e / p`; the stiffness itself pulsates at
-  :math:`2\omega_e`, :func:`fivebar.electromagnetics.field_frequencies`);
+  :math:`2\omega_e`, :func:`fivebar.model.electromagnetics.field_frequencies`);
 * :math:`f = 8`: the products :math:`\mathbf K^e\mathbf e`, with :math:`\nu_8 = \gcd` of all.
 
-Only :math:`f = 1, 2, 3` drive the linkage subsystem that :class:`fivebar.dynamics.LinkageDynamics`
+Only :math:`f = 1, 2, 3` drive the linkage subsystem that :class:`fivebar.model.dynamics.LinkageDynamics`
 integrates: the electromagnetic terms act on the rotors' transverse DOFs alone, which do not
 couple to the linkage.  Under the equal-speed assumption :math:`\nu_1 = \nu_2 = \nu_3 = \Omega`,
 the crank speed, and the whole linkage load is one Fourier series in :math:`k\Omega`.
@@ -58,7 +58,7 @@ offers two readings of (3.1):
   (3.2); they are of relative size :math:`\Omega/\omega_r` and
   :math:`(\Omega/\omega_r)^2`.  The second shifts the resonances at higher speeds: for a mode
   whose shape turns with the cranks it is :math:`-\Omega^2` (spin softening), and
-  :func:`fivebar.linkage_multiscale.modal_model` can keep it;
+  :func:`fivebar.analyses.linkage_multiscale.modal_model` can keep it;
 * ``"reference"``: the modes of one configuration (crank angle 0 by default), constant, with
   :math:`f_r(t) = \boldsymbol\phi_r^\top\mathbf F(t)`, whose Fourier coefficients are the
   complex sums :math:`\sum_i\phi_{ir}F_{fki}e^{i\tau_{fki}}` (errata E22).
@@ -253,7 +253,7 @@ def excitation_frequencies(
     supply : {"crank", "mains"}
         "crank" (default): each motor's supply frequency is the one at which its rotor turns
         with its crank (the cranks are clamped to the rotors, errata E6, E19;
-        :func:`fivebar.electromagnetics.supply_frequency_for_speed`).  "mains": the
+        :func:`fivebar.model.electromagnetics.supply_frequency_for_speed`).  "mains": the
         parameters' ``supply_frequency`` for both motors, the rotors at their slip speeds
         (then the rotors do not turn with the cranks).
 
@@ -262,7 +262,7 @@ def excitation_frequencies(
     pandas.DataFrame
         Indexed by symbol ("nu1".."nu8"), columns ``frequency (rad/s)``, ``frequency (Hz)``,
         ``source`` (the term of (2.7)), ``drives linkage`` (bool: acts on the linkage
-        subsystem of :class:`fivebar.dynamics.LinkageDynamics`) and ``note``.  A common
+        subsystem of :class:`fivebar.model.dynamics.LinkageDynamics`) and ``note``.  A common
         divisor that does not exist (incommensurate frequencies) is NaN.
     """
     if supply not in ("crank", "mains"):

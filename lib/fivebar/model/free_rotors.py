@@ -3,9 +3,9 @@ r"""The flexible linkage with free rotors: the finite-element model of the contr
 The prescribed-motion model (2.7) makes the motor rotors the torsional reference: their angles
 *are* the crank laws, and the motor torques do not appear.  For control the rotor angles must
 be free and the torques must be inputs.  This module builds that model;
-:mod:`fivebar.control_model` reduces it to a few modes and writes it as a
-:class:`control.StateSpace`, :mod:`fivebar.control_design` designs servo and damping loops
-around it, and :mod:`fivebar.control_simulation` closes them along the nominal motion (the
+:mod:`fivebar.analyses.control.control_model` reduces it to a few modes and writes it as a
+:class:`control.StateSpace`, :mod:`fivebar.analyses.control.control_design` designs servo and damping loops
+around it, and :mod:`fivebar.analyses.control.control_simulation` closes them along the nominal motion (the
 paper's "next step", section 6).
 
 **Five-bar only.**  The model is that of a linkage with two cranks, each driven by the motor
@@ -34,7 +34,7 @@ to the shaft, erratum E6).  The generalised coordinates are
 
 :math:`\mathbf u_b` the 24 beam DOFs of the paper's mesh (more for a refined one) with
 :math:`s_A, s_E` among them; the rotors' transverse DOFs :math:`U_1, U_2, U_5, U_6` do not
-couple to the rest (chapter on the dynamics, :mod:`fivebar.dynamics`) and are left out.
+couple to the rest (chapter on the dynamics, :mod:`fivebar.model.dynamics`) and are left out.
 
 **Energies.**  The shaft's kinetic energy in absolute rates, with the rotor inertia
 :math:`J_0` (section 5) at the rotor, is
@@ -63,26 +63,26 @@ literal model's DOFs plus the rotor angles.
 
 **Rigid modes.**  The linkage with both rotors free is a two-degree-of-freedom mechanism:
 :math:`\mathbf K_p\boldsymbol\Phi_r = \mathbf 0` for the two rigid fields of unit crank speeds
-(:meth:`fivebar.assembly.Model.rigid_velocity`, with :math:`\varphi_i = 1` and no twist), and
+(:meth:`fivebar.model.assembly.Model.rigid_velocity`, with :math:`\varphi_i = 1` and no twist), and
 :math:`\boldsymbol\Phi_r^\top \mathbf M_p \boldsymbol\Phi_r` is the mass matrix of the rigid
-2-DOF dynamics (:func:`fivebar.rigid.mass_matrix` with :func:`rigid_inertia`).  With
+2-DOF dynamics (:func:`fivebar.model.rigid.mass_matrix` with :func:`rigid_inertia`).  With
 :math:`J_0 \to \infty` the rotors stand still and the nonzero frequencies tend to those of the
-prescribed-motion model with motors (:func:`fivebar.modal.natural_frequencies`).
+prescribed-motion model with motors (:func:`fivebar.analyses.modal.natural_frequencies`).
 
 **Outputs.**  ``theta1, theta4``: rotor angles :math:`\varphi_i` (what the motor's encoder
 reads; collocated with the torque); ``omega1, omega4``: their rates; ``crank1, crank4``: the
 crank-root rotations :math:`s_A, s_E` (non-collocated: through the shaft); ``crank_rate1,
 crank_rate4``; ``rigid1, rigid4``: :math:`\boldsymbol\eta_r` (the rigid part of the crank angles in
-the modal reduction of :mod:`fivebar.control_model`); ``w2, w3``: the transverse
+the modal reduction of :mod:`fivebar.analyses.control.control_model`); ``w2, w3``: the transverse
 displacement of the midpoint of L2, L3 relative to the rigid motion at the rotor angles,
 :math:`w = \mathbf c^\top(\mathbf p - \boldsymbol\Phi_r\boldsymbol\varphi)`
-(:meth:`fivebar.assembly.Model.link_displacement`), the same quantity as the prescribed-motion
-model's midpoint deflection (:meth:`fivebar.response.Response.midpoint_mm`), in m.
+(:meth:`fivebar.model.assembly.Model.link_displacement`), the same quantity as the prescribed-motion
+model's midpoint deflection (:meth:`fivebar.analyses.response.Response.midpoint_mm`), in m.
 
 **Left out** (state it wherever results are shown): the velocity-dependent terms of the
 nominal motion (Coriolis, centrifugal stiffening, :math:`\dot{\mathbf M}`), as in (2.7); the
 geometric nonlinearity (2.8); the rotors' whirl and the electromagnetic terms (they do not
-couple, :mod:`fivebar.dynamics`); the motors' electrical dynamics, torque limits and any
+couple, :mod:`fivebar.model.dynamics`); the motors' electrical dynamics, torque limits and any
 sampling or measurement noise (the motor is an ideal torque source, states are measured).
 """
 
@@ -194,10 +194,10 @@ def rigid_inertia(params: Params, rotor_inertia_scale: float = 1.0) -> InertiaMo
     """The rigid inertia model consistent with the flexible model of this module (any
     description: one rotor per motor-driven crank).
 
-    ``inertia = rigid_inertia(params)``; pass it to :func:`fivebar.rigid.mass_matrix` or
-    :func:`fivebar.rigid.inverse_dynamics`.
+    ``inertia = rigid_inertia(params)``; pass it to :func:`fivebar.model.rigid.mass_matrix` or
+    :func:`fivebar.model.rigid.inverse_dynamics`.
 
-    Differs from :func:`fivebar.rigid.inertia_model` in two small terms that the finite-element
+    Differs from :func:`fivebar.model.rigid.inertia_model` in two small terms that the finite-element
     mass carries: each motor shaft's polar inertia :math:`\\rho_s J_p l` is added to its rotor
     (``shaft_inertia=True``), and each flat bar's centroidal inertia is :math:`m (L^2 + d^2)/12`
     with the in-plane depth :math:`d` when ``params.rotary_inertia`` is 1 (the rotary-inertia
@@ -227,8 +227,8 @@ def feedforward(
 ) -> NDArray:
     """Motor torques (N m) that drive the nominal motion: the rigid inverse dynamics.
 
-    ``tau_ff = feedforward(params, t)``: :func:`fivebar.rigid.inverse_dynamics` along
-    :func:`fivebar.kinematics.crank_laws` at times ``t`` (s), with :func:`rigid_inertia`, so
+    ``tau_ff = feedforward(params, t)``: :func:`fivebar.model.rigid.inverse_dynamics` along
+    :func:`fivebar.model.kinematics.crank_laws` at times ``t`` (s), with :func:`rigid_inertia`, so
     that it equals the flexible model's inertial load projected on its rigid modes.
     ``crank_speed_rpm`` (r/min) defaults to the parameters' ``crank_speed_rpm``.
 
@@ -260,11 +260,11 @@ class FlexibleLinkage:
 
     Attributes
     ----------
-    model : fivebar.assembly.Model
+    model : fivebar.model.assembly.Model
         The literal assembly (``tie_crank_roots=False``) the coordinates are built on.
     labels : list of str
         Names of the coordinates p: ``phi1, phi2`` (rotor angles), ``U3, U7`` (twists at the
-        second bearings), then the beam DOFs (:class:`fivebar.assembly.Dof` labels).
+        second bearings), then the beam DOFs (:class:`fivebar.model.assembly.Dof` labels).
     n : int
         Number of coordinates.
     rotor, crank : tuple of int
@@ -357,7 +357,7 @@ class FlexibleLinkage:
         """Nominal rigid acceleration field a_r in p (as (2.7)'s u_r''), shape ``(..., n)``.
 
         Rotor entries: the crank accelerations; relative twists: 0; beam DOFs:
-        :meth:`fivebar.assembly.Model.rigid_acceleration` (gravity included there).
+        :meth:`fivebar.model.assembly.Model.rigid_acceleration` (gravity included there).
         """
         st = rigid_state(self.params, theta1, omega1, alpha1, theta4, omega4, alpha4)
         a = self.model.rigid_acceleration(st)

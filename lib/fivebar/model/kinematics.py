@@ -1,6 +1,6 @@
 r"""Rigid-body kinematics of a single-loop planar linkage of revolute joints.
 
-The linkage is the description of the parameter file (:class:`fivebar.linkage.Linkage`; the
+The linkage is the description of the parameter file (:class:`fivebar.description.linkage.Linkage`; the
 paper's five-bar of Figure 1 by default): a chain of links from one ground pivot to the other,
 closed by the frame.  The drives fix the angles of the cranks; the two other links close the
 loop,
@@ -336,7 +336,7 @@ def crank_laws(params: Params, t: ArrayLike, crank_speed_rad_s: float | None = N
     For the paper's five-bar both cranks turn at constant speed from their initial angles:
     theta1 = theta1_0 + Omega t, theta4 = theta4_0 + speed_ratio Omega t (assumptions
     ``crank_speed_rpm`` and ``speed_ratio``; the paper starts both cranks at 0 deg).  In
-    general each crank follows its :class:`fivebar.linkage.Drive`.
+    general each crank follows its :class:`fivebar.description.linkage.Drive`.
 
     Parameters
     ----------

@@ -68,11 +68,11 @@ evaluates all elements at once: the configuration enters only through
 :class:`ElementGeometry`, the rows :math:`\mathbf G_{ep}` and :math:`\mathbf a_e^\top`
 (repeated at each Gauss point of the element) scattered into the global DOFs, so that all
 slopes and stretches are one product :math:`\mathbf H\mathbf u`.  A caller stepping through
-known instants computes the geometry once per instant (:class:`fivebar.dynamics.LinkageDynamics`
+known instants computes the geometry once per instant (:class:`fivebar.model.dynamics.LinkageDynamics`
 does, for the S step times of a period).  The compiled element loop
-(``fivebar._nonlinear_kernel``) evaluates the same definition; the tests hold the two equal to
+(``fivebar.model._nonlinear_kernel``) evaluates the same definition; the tests hold the two equal to
 round-off for every strain measure.  :meth:`NonlinearForce.compiled` hands it, with the
-geometry of the step times, to the compiled time loop of :mod:`fivebar.newmark`, which calls
+geometry of the step times, to the compiled time loop of :mod:`fivebar.numerics.newmark`, which calls
 it as a function it is given and knows nothing of the beam.
 """
 
@@ -276,7 +276,7 @@ class NonlinearForce:
         (..., n_el, 8) in the element's global DOFs, at crank angles (rad) of any common shape.
 
         With :attr:`element_dofs` and :attr:`element_weights` they are what the compiled
-        element loop (``fivebar._nonlinear_kernel.element_loop``) needs.
+        element loop (``fivebar.model._nonlinear_kernel.element_loop``) needs.
         """
         m = self.model
         betas = np.stack(np.broadcast_arrays(*m.element_angles(link_angles(m.params, *theta))), axis=-1)
@@ -291,7 +291,7 @@ class NonlinearForce:
 
         Returns ``(force, rdata, idata)``: the compiled function
         ``force(u, k, rdata, idata, f, Kt, tangent)`` (the signature
-        ``fivebar._kernels.FORCE_SIG``), which evaluates f_nl and, if ``tangent``, its Jacobian at
+        ``fivebar.numerics._kernels.FORCE_SIG``), which evaluates f_nl and, if ``tangent``, its Jacobian at
         the state ``u`` and step point ``k`` (modulo S), and its data.  Compiles (once, then
         cached on disk) on first use.
         """

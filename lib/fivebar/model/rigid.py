@@ -29,7 +29,7 @@ where :math:`\mathbf a_{b,0}` and :math:`\alpha_{b,0}` are the acceleration and 
 acceleration of body :math:`b` for the actual :math:`\dot{\mathbf q}` and
 :math:`\ddot{\mathbf q} = 0` (exact, since accelerations are affine in :math:`\ddot{\mathbf q}`
 with the Jacobians as slope).  The Jacobians and :math:`\mathbf a_{b,0}` come from
-:func:`fivebar.kinematics.rigid_state` with unit crank speeds.
+:func:`fivebar.model.kinematics.rigid_state` with unit crank speeds.
 
 Bodies (uniform flat bars of mass :math:`\rho A L` with centroidal inertia :math:`mL^2/12`
 about the normal to the plane): the moving links of the description (for the five-bar the
@@ -40,7 +40,7 @@ shaft (a crank without a motor has none).  Gravity (``params.gravity``, an assum
 default) acts along :math:`-y`.
 
 The links' part of :math:`\mathbf M` equals the consistent finite-element mass of
-:mod:`fivebar.assembly` projected on the rigid-body velocity fields (tests/test_rigid.py).  The
+:mod:`fivebar.model.assembly` projected on the rigid-body velocity fields (tests/test_rigid.py).  The
 rotors differ: the torsion shape functions of the motor element (A.3) vanish at the rotor, so
 :math:`J_0` drives no elastic DOF there, while here it turns with its crank and resists every
 change of crank speed.  At constant crank speed it does no work and drops out of the torques.
@@ -134,7 +134,7 @@ def inertia_model(params: Params, shaft_inertia: bool = False) -> InertiaModel:
     params
         The parameter set: the description's links (length, section, material), the lumped
         masses at its pins and the rotor inertia ``J0`` (section 5) of the motor each crank
-        names (:attr:`fivebar.params.Params.crank_motors`).
+        names (:attr:`fivebar.description.params.Params.crank_motors`).
     shaft_inertia
         Add the polar inertia of each motor shaft, :math:`\\rho_s (\\pi d^4/32) (l_1+l_2+l_3)`
         (shaft diameter and material are assumptions), to the rotor inertia.  Off by default:
@@ -268,7 +268,7 @@ def mass_matrix(params: Params, *theta: ArrayLike, inertia: InertiaModel | None 
     inertia
         Masses and inertias; ``None`` takes :func:`inertia_model` ``(params)``.
     mode
-        Assembly mode (:func:`fivebar.kinematics.positions`).
+        Assembly mode (:func:`fivebar.model.kinematics.positions`).
 
     Returns
     -------
@@ -335,7 +335,7 @@ def inverse_dynamics(params: Params, *laws: ArrayLike, inertia: InertiaModel | N
     ----------
     *laws
         Per driven crank (chain order) its angle (rad), angular velocity (rad/s) and angular
-        acceleration (rad/s^2), as :func:`fivebar.kinematics.rigid_state` takes them; all
+        acceleration (rad/s^2), as :func:`fivebar.model.kinematics.rigid_state` takes them; all
         broadcast to a shape ``S``.
     inertia, mode
         See :func:`mass_matrix`.
@@ -378,7 +378,7 @@ def motor_torques(
     """Motor torques (N m) along the default crank laws at times ``t`` (s).
 
     ``tau = motor_torques(params, t)``: :func:`inverse_dynamics` along
-    :func:`fivebar.kinematics.crank_laws` (both cranks at constant speed, an assumption), at the
+    :func:`fivebar.model.kinematics.crank_laws` (both cranks at constant speed, an assumption), at the
     speed ``crank_speed_rad_s`` (rad/s; ``None`` takes ``params.crank_speed_rad_s``).  At constant speed the
     rotor inertias do no work and the torques scale with the square of the speed.
 

@@ -22,7 +22,7 @@ directory that is removed when the process exits.  The order of the locations is
 ``__pycache__`` read-only if it holds entries, then the user-wide cache directory, then (new)
 the temporary directory.
 
-This module knows nothing of the linkage; :func:`fivebar.newmark` loads its kernels with it.
+This module knows nothing of the linkage; :func:`fivebar.numerics.newmark` loads its kernels with it.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
-r"""The time step of :mod:`fivebar.newmark`, written once (numba), and the compiled time loop.
+r"""The time step of :mod:`fivebar.numerics.newmark`, written once (numba), and the compiled time loop.
 
 The step of the Newmark / HHT / generalised-alpha schemes ((4.2)-(4.4) of the paper and their
-generalised-alpha form; :mod:`fivebar.newmark`'s docstring gives the equations) is a handful
+generalised-alpha form; :mod:`fivebar.numerics.newmark`'s docstring gives the equations) is a handful
 of compiled functions: the scheme's :func:`coefficients`, the predictor with the alpha history
 (:func:`predict`), the corrector's residual and its reference norm (:func:`residual`), the
 Newton test and update (:func:`converged`, :func:`correct`), the step tangent and its LU
@@ -9,7 +9,7 @@ Newton test and update (:func:`converged`, :func:`correct`), the step tangent an
 history of the alpha schemes, new state) and the propagation of the step Jacobians
 (:func:`sensitivity`).  Two loops call them: :func:`march` here, compiled, where the data
 allow it (per-step matrices in arrays, a linear system or a nonlinear force given as a
-compiled function), and the Python loop of :func:`fivebar.newmark.integrate` for a generic
+compiled function), and the Python loop of :func:`fivebar.numerics.newmark.integrate` for a generic
 system whose matrices or nonlinear force are Python callbacks.  Neither loop holds a formula of
 the step of its own.
 
@@ -18,7 +18,7 @@ The nonlinear force of the compiled loop is the model's: a compiled function of 
 first-class function with the model's data in two flat arrays (``rdata`` floats, ``idata``
 integers: the function unpacks them), which fills ``f`` (n,) with the force at the state
 ``u`` and step point ``k`` and, if ``tangent``, ``Kt`` (n, n) with its Jacobian.  This module
-knows nothing of the model (the linkage's strain force is ``fivebar._nonlinear_kernel``).
+knows nothing of the model (the linkage's strain force is ``fivebar.model._nonlinear_kernel``).
 
 The state is one array ``x`` (4, n): displacement, velocity, acceleration and the alpha
 schemes' force history :math:`\mathbf g_n = \mathbf C\dot{\mathbf u} + \mathbf K\mathbf u
@@ -31,9 +31,9 @@ BLAS).
 
 :func:`march` releases the GIL while it runs, so that two periods can be integrated at once in
 two threads (the continuation's forward difference in the parameter beside the monodromy
-period, :mod:`fivebar.continuation`).
+period, :mod:`fivebar.numerics.continuation`).
 
-Compiled functions are cached on disk (``cache=True``) by :mod:`fivebar._jitcache`, which
+Compiled functions are cached on disk (``cache=True``) by :mod:`fivebar.numerics._jitcache`, which
 compiles the signatures of :data:`__jit_signatures__` when it loads the module (the compiled
 loop takes the force as a first-class function, whose type only an explicit signature keeps
 the same from one process to the next: a cached loop is then found again).
@@ -496,7 +496,7 @@ def newton(c, Mb, C, K, F, fnl, Kt, w, force, kk, rdata, idata, tol, max_iter, f
 def march(Ms, Cs, Ks, Fs, k0, c, x, nsteps, t0, force, rdata, idata, nonlin, Ktp, tol, max_iter,
           full, LUc, pivc, have, P, X, iters, info):
     """March ``nsteps`` steps of the scheme ``c`` (:func:`coefficients`) from the state ``x``
-    (4, n) at ``t0``, in place; see :func:`fivebar.newmark.integrate`.
+    (4, n) at ``t0``, in place; see :func:`fivebar.numerics.newmark.integrate`.
 
     Per-step data are read at index ``(k0 + j) % len`` of ``Ms, Cs, Ks, Fs`` and of the
     linear-tangent cache ``LUc, pivc, have`` (a length-1 array is a constant); the nonlinear
@@ -582,7 +582,7 @@ def no_force(u, k, rdata, idata, f, Kt, tangent):
 
 
 _r2, _r3 = (types.Array(types.float64, d, "C", readonly=True) for d in (2, 3))  # step data
-#: Signatures that :func:`fivebar._jitcache.import_cached` compiles when it loads the module
+#: Signatures that :func:`fivebar.numerics._jitcache.import_cached` compiles when it loads the module
 #: (``march`` takes the force as a first-class function of :data:`FORCE_SIG`).
 __jit_signatures__ = {
     "march": (types.int64(_r3, _r3, _r3, _r2, types.int64, _f1, _f2, types.int64, types.float64,

@@ -2,7 +2,7 @@ r"""Continuation of periodic orbits in a parameter, with their bifurcations.
 
 The periodic orbits of a periodically forced system at parameter :math:`p` are the fixed
 points of its period map, :math:`\mathbf G(\mathbf x, p) = \mathbf P(\mathbf x; p) - \mathbf x
-= \mathbf 0` (:mod:`fivebar.periodic`).  Their set is a curve in :math:`(\mathbf x, p)`;
+= \mathbf 0` (:mod:`fivebar.numerics.periodic`).  Their set is a curve in :math:`(\mathbf x, p)`;
 :func:`continuation` follows it by *pseudo-arclength continuation* (Keller 1977): from a point
 :math:`\mathbf y_k = (\mathbf x_k, p_k)` with unit tangent :math:`\boldsymbol\tau_k` (the null
 vector of :math:`[\boldsymbol\Phi - \mathbf I,\ \mathbf G_p]`), predict
@@ -468,9 +468,9 @@ def continuation(
     Parameters
     ----------
     period_map : PeriodMap
-        ``(x, p, jacobian) -> (x_T, Phi)`` (:func:`fivebar.periodic.newmark_map` of a family).
+        ``(x, p, jacobian) -> (x_T, Phi)`` (:func:`fivebar.numerics.periodic.newmark_map` of a family).
     x0 : array_like (N,)
-        A guess of the orbit at ``p0``; shot first (:func:`fivebar.periodic.shoot`).
+        A guess of the orbit at ``p0``; shot first (:func:`fivebar.numerics.periodic.shoot`).
     p0, p_end : float
         Start; the continuation stops when ``p`` passes ``p_end`` (the last point is corrected
         onto ``p = p_end``), leaves ``p_bounds``, or after ``max_points`` points.
@@ -925,7 +925,7 @@ def settle(period_map: PeriodMap, orbit: PeriodicOrbit, p: float | None = None, 
     with ``size`` their largest entry: period 2 if every sample repeats the one two before to
     ``rtol * size`` and differs from the one before by more than ``10 rtol * size``; period 1
     if every sample repeats the one before to ``rtol * size``.  The orbit found is then shot
-    (:func:`fivebar.periodic.shoot`, ``tol``) from the last sample, so it is a fixed point of the
+    (:func:`fivebar.numerics.periodic.shoot`, ``tol``) from the last sample, so it is a fixed point of the
     map (or of its square) with its own multipliers, not the march's approximation.
     """
     if isinstance(periods, bool) or int(periods) != periods or periods < 8:

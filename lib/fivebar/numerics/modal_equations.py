@@ -22,7 +22,7 @@ harmonics near a natural frequency small ("soft").
 
 This module holds the data types of (3.4) (:class:`ModalSystem`, :class:`Harmonic`,
 :class:`Parametric`) and the error of bad input to the multiple-scales functions; the solver
-is :mod:`fivebar.multiscale`.  It imports nothing of the linkage.
+is :mod:`fivebar.numerics.multiscale`.  It imports nothing of the linkage.
 """
 
 from __future__ import annotations
@@ -211,7 +211,7 @@ class Parametric:
 
 def _check_inputs(system: ModalSystem, harmonics: Sequence[Harmonic], parametric: Sequence[Parametric]) -> None:
     if not isinstance(system, ModalSystem):
-        raise MultiscaleError(f"system is a {type(system).__name__}: it must be a fivebar.modal_equations.ModalSystem")
+        raise MultiscaleError(f"system is a {type(system).__name__}: it must be a fivebar.numerics.modal_equations.ModalSystem")
     for j, h in enumerate(harmonics):
         if not isinstance(h, Harmonic):
             raise MultiscaleError(f"harmonics[{j}] is a {type(h).__name__}: it must be a Harmonic")

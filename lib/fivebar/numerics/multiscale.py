@@ -1,9 +1,9 @@
 r"""Multiple scales: the first approximation (3.6)-(3.7) of the modal equations (3.4).
 
-The modal equations (3.4) and their data types are in :mod:`fivebar.modal_equations`; the
+The modal equations (3.4) and their data types are in :mod:`fivebar.numerics.modal_equations`; the
 closed forms of one mode (frequency response, backbone, parametric transition curves) in
-:mod:`fivebar.response_curves`.  This module, like them, imports nothing of the linkage
-(:mod:`fivebar.linkage_multiscale` builds the linkage's modal equations).
+:mod:`fivebar.numerics.response_curves`.  This module, like them, imports nothing of the linkage
+(:mod:`fivebar.analyses.linkage_multiscale` builds the linkage's modal equations).
 
 **First approximation, (3.7).**  With :math:`T_0=t,\ T_1=\varepsilon t` and
 :math:`\eta_r=\eta_{r0}(T_0,T_1)+\varepsilon\eta_{r1}+\dots`, the order :math:`\varepsilon^0`

@@ -9,9 +9,9 @@ This module implements section 4 of the paper, eqs. (4.1)-(4.4), for a generic s
 
 with ``n`` degrees of freedom and dense matrices.  It knows nothing of the five-bar linkage:
 the model supplies ``M, C, K, F`` (and the nonlinear force) through a small protocol
-(:class:`fivebar.systems.SecondOrderSystem`, or the concrete :class:`fivebar.systems.System`).
+(:class:`fivebar.numerics.systems.SecondOrderSystem`, or the concrete :class:`fivebar.numerics.systems.System`).
 The schemes (Newmark's rule (4.2)-(4.3) and the dissipative alpha schemes, with their stability
-conditions) are :mod:`fivebar.schemes`; this module is the integrator, :func:`integrate`.
+conditions) are :mod:`fivebar.numerics.schemes`; this module is the integrator, :func:`integrate`.
 
 **The equation at** :math:`t_{n+1}` **, (4.4).**  Writing
 :math:`\tilde{\mathbf u} = \mathbf u_n + \Delta t\,\dot{\mathbf u}_n
@@ -38,7 +38,7 @@ solved by Newton-Raphson with the consistent tangent
 
 A linear system (no ``f_nl``) takes one solve per step.  Factorisations are reused when the
 tangent does not change (time-invariant linear systems, or periodic systems whose per-step
-matrices are precomputed in a :class:`fivebar.systems.PeriodicStepData`).
+matrices are precomputed in a :class:`fivebar.numerics.systems.PeriodicStepData`).
 
 **Numerical dissipation (optional).**  The generalised-alpha family of Chung & Hulbert (1993)
 evaluates the equation at intermediate points, with forces interpolated between
@@ -56,13 +56,13 @@ the time :math:`t_{n+1-\alpha_f}` where the forces are taken: with a time-varyin
 :math:`\mathbf M_{n+1}` there would make the scheme first order) and the tangent
 :math:`\mathbf S = (1-\alpha_m)\bar{\mathbf M}/(\beta\Delta t^2)
 + (1-\alpha_f)\big(\gamma\mathbf C_{n+1}/(\beta\Delta t) + \mathbf K_{n+1} + \mathbf K_t\big)`.
-:class:`~fivebar.schemes.Newmark` is :math:`\alpha_m=\alpha_f=0`;
-:class:`~fivebar.schemes.HHT` and :class:`~fivebar.schemes.GeneralizedAlpha` set the alphas
-from one parameter each (:mod:`fivebar.schemes`).
+:class:`~fivebar.numerics.schemes.Newmark` is :math:`\alpha_m=\alpha_f=0`;
+:class:`~fivebar.numerics.schemes.HHT` and :class:`~fivebar.numerics.schemes.GeneralizedAlpha` set the alphas
+from one parameter each (:mod:`fivebar.numerics.schemes`).
 
 **State and sensitivity.**  The integrator carries :math:`(\mathbf u,\dot{\mathbf u},
 \ddot{\mathbf u})`; the initial acceleration is by default the consistent one, from the
-equation of motion at :math:`t_0`.  For :class:`~fivebar.schemes.Newmark` the carried acceleration satisfies the
+equation of motion at :math:`t_0`.  For :class:`~fivebar.numerics.schemes.Newmark` the carried acceleration satisfies the
 equation at every step, so the one-step map is a map of :math:`(\mathbf u, \dot{\mathbf u})`
 (dimension :math:`2n`); the alpha schemes carry an *algorithmic* acceleration that is a genuine
 third state (dimension :math:`3n`): restarting them from the consistent acceleration every step
@@ -88,10 +88,10 @@ and :math:`\delta\dot{\mathbf u}_{n+1} = \delta\tilde{\mathbf v} + \gamma\Delta 
 **The step, written once; two loops.**  The step's algebra (the scheme's coefficients, the
 predictors, the residual and its reference norm, the Newton test and update, the tangent and its
 LU, the alpha history, the sensitivity step) is a set of small compiled functions
-(``fivebar._kernels``, numba, cached on disk) and nothing else.  Two loops call them: a compiled
-loop, whenever the data allow it (per-step matrices from a :class:`~fivebar.systems.PeriodicStepData`, or a
+(``fivebar.numerics._kernels``, numba, cached on disk) and nothing else.  Two loops call them: a compiled
+loop, whenever the data allow it (per-step matrices from a :class:`~fivebar.numerics.systems.PeriodicStepData`, or a
 time-invariant system, with no nonlinear force or one the system supplies compiled,
-``system.compiled_nonlinear(step_data)``, as :class:`fivebar.dynamics.LinkageDynamics` does with
+``system.compiled_nonlinear(step_data)``, as :class:`fivebar.model.dynamics.LinkageDynamics` does with
 the beam's strain force), and a Python loop for a generic system with Python callbacks (a
 nonlinear force given as a function, time-varying matrices without step data).  The loops
 differ only in where the matrices and the nonlinear force come from; the tests hold them equal
@@ -108,7 +108,7 @@ sensitivity is asked for).  The first call of a
 fresh installation compiles the kernels (tens of seconds); later processes load them from the
 cache, which heals (a damaged file is discarded and rebuilt with a warning), is read where it
 is read-only, and is temporary (removed at exit) where nothing is writable:
-``fivebar._jitcache``.
+``fivebar.numerics._jitcache``.
 
 References: N. M. Newmark, J. Eng. Mech. Div. ASCE 85 (1959) 67-94; J. Chung,
 G. M. Hulbert, J. Appl. Mech. 60 (1993) 371-375.
@@ -260,8 +260,8 @@ def integrate(
     nsteps : int
         Number of steps, >= 0.
     scheme : Scheme, optional
-        :class:`~fivebar.schemes.Newmark` (default: gamma = 1/2, beta = 1/4),
-        :class:`~fivebar.schemes.HHT` or :class:`~fivebar.schemes.GeneralizedAlpha`.
+        :class:`~fivebar.numerics.schemes.Newmark` (default: gamma = 1/2, beta = 1/4),
+        :class:`~fivebar.numerics.schemes.HHT` or :class:`~fivebar.numerics.schemes.GeneralizedAlpha`.
     a0 : array_like (n,), optional
         Initial acceleration; default the consistent one from the equation at ``t0``.
     step_data : PeriodicStepData, optional
@@ -283,7 +283,7 @@ def integrate(
     sensitivity : bool or {"uv", "uva"}
         Also return the product of the step Jacobians.  "uv": ``d(u_N, v_N)/d(u_0, v_0)`` with
         the initial acceleration consistent (2n x 2n; requires ``a0=None``); the exact
-        monodromy of the discrete map for :class:`~fivebar.schemes.Newmark`.  "uva": ``d(u_N, v_N, a_N) /
+        monodromy of the discrete map for :class:`~fivebar.numerics.schemes.Newmark`.  "uva": ``d(u_N, v_N, a_N) /
         d(u_0, v_0, a_0)`` (3n x 3n), the state of the alpha schemes.  True picks "uv" for
         Newmark and "uva" otherwise.
     directions : array_like (2n, m) or (3n, m), optional
@@ -513,10 +513,10 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
 def _march_python(kern, c, x, P, data, nl, t0, nsteps, k0, M_const, refactor, Kt0, cache, tol,
                   max_iter, full, X, iters) -> None:
     """The time loop in Python, for systems the compiled loop cannot serve (Python callbacks
-    of a generic :class:`~fivebar.systems.SecondOrderSystem`, time-varying systems without step data): the
-    step is the compiled loop's, its pieces (``fivebar._kernels``) called from here, with the
+    of a generic :class:`~fivebar.numerics.systems.SecondOrderSystem`, time-varying systems without step data): the
+    step is the compiled loop's, its pieces (``fivebar.numerics._kernels``) called from here, with the
     system's matrices and nonlinear force from its callbacks.  Arguments as
-    ``fivebar._kernels.march`` takes them; ``refactor``: factorise the linear tangent anew
+    ``fivebar.numerics._kernels.march`` takes them; ``refactor``: factorise the linear tangent anew
     every step (time-varying matrices)."""
     n = x.shape[1]
     linear = nl is None
@@ -576,7 +576,7 @@ def _march_python(kern, c, x, P, data, nl, t0, nsteps, k0, M_const, refactor, Kt
 
 def _newton_python(kern, c, Mb, C, K, F, fnl, Kt, w, nl, t, n, tol, max_iter, full, LUc, pivc,
                    have, li, St, piv) -> tuple[int, int, dict]:
-    """Newton's iteration of a nonlinear step of the Python loop (``fivebar._kernels.newton``
+    """Newton's iteration of a nonlinear step of the Python loop (``fivebar.numerics._kernels.newton``
     with the force from the system's callback): ``(status, iterations, what)``, ``what`` the
     figures of a failure for :func:`_step_error`."""
     k_it = 0
@@ -626,8 +626,8 @@ _KERNELS: Any = None
 
 
 def _kernels() -> Any:
-    """The compiled step and loop (``fivebar._kernels``), imported on first use (numba is
-    heavy) with the healing disk cache of :mod:`fivebar._jitcache`."""
+    """The compiled step and loop (``fivebar.numerics._kernels``), imported on first use (numba is
+    heavy) with the healing disk cache of :mod:`fivebar.numerics._jitcache`."""
     global _KERNELS
     if _KERNELS is None:
         from ._jitcache import import_cached

@@ -1,8 +1,8 @@
 """Newton-Raphson with step halving, for a small system of nonlinear equations.
 
-The root finder of the multiple-scales steady states (:meth:`fivebar.multiscale.SlowFlow.steady_state`);
+The root finder of the multiple-scales steady states (:meth:`fivebar.numerics.multiscale.SlowFlow.steady_state`);
 it knows nothing of multiple scales or of the linkage.  Its one error is the library's error of
-every Newton iteration, :class:`fivebar.newmark.NewtonConvergenceError`.
+every Newton iteration, :class:`fivebar.numerics.newmark.NewtonConvergenceError`.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ fixed point has the Floquet multipliers as eigenvalues: the orbit is asymptotica
 all lie inside the unit circle.  :func:`shoot` solves :math:`\mathbf G = \mathbf 0` by Newton's
 method with the Jacobian :math:`\boldsymbol\Phi - \mathbf I`.
 
-This module imports nothing of the linkage (like :mod:`fivebar.newmark`).  The protocol of a
+This module imports nothing of the linkage (like :mod:`fivebar.numerics.newmark`).  The protocol of a
 period map (:class:`PeriodMap`) is one callable::
 
     x_T, Phi = period_map(x, p, jacobian)
@@ -21,11 +21,11 @@ period map (:class:`PeriodMap`) is one callable::
 returning the state after one period and, if ``jacobian`` is true, the monodromy matrix, or
 ``None`` where the integrator gives no tangent (then :func:`monodromy` takes finite
 differences).  :func:`newmark_map` builds one from a family of second-order systems of the
-protocol of :mod:`fivebar.systems` (:class:`~fivebar.systems.SecondOrderSystem` integrated by
-:func:`~fivebar.newmark.integrate`), with the monodromy matrix from the integrator's step
+protocol of :mod:`fivebar.numerics.systems` (:class:`~fivebar.numerics.systems.SecondOrderSystem` integrated by
+:func:`~fivebar.numerics.newmark.integrate`), with the monodromy matrix from the integrator's step
 tangents.  The state is :math:`\mathbf x = (\mathbf u, \dot{\mathbf u})` at the start of the
 period; the alpha schemes carry an algorithmic acceleration as well, which is started, as
-:func:`~fivebar.newmark.integrate` does, from the equation of motion (so the map and its
+:func:`~fivebar.numerics.newmark.integrate` does, from the equation of motion (so the map and its
 monodromy matrix are those of :math:`(\mathbf u, \dot{\mathbf u})` with a consistent initial
 acceleration).
 
@@ -79,11 +79,11 @@ class PeriodMap(Protocol):
     ``jacobian`` whether ``Phi = d x_T / d x`` (``(N, N)``) is wanted; ``Phi`` is ``None`` when
     not asked for or when the integrator gives no tangent.  A failed integration raises a
     :class:`~fivebar.errors.FivebarError` (for example
-    :class:`~fivebar.newmark.NewtonConvergenceError`).
+    :class:`~fivebar.numerics.newmark.NewtonConvergenceError`).
 
     Optional attributes: ``periods`` (forcing periods per application, 1 if absent) and
     ``concurrent`` (True if calls at two different ``p`` may run at once in two threads; then
-    :func:`fivebar.continuation.continuation` integrates its forward difference in ``p`` beside
+    :func:`fivebar.numerics.continuation.continuation` integrates its forward difference in ``p`` beside
     the monodromy period, on a second core; absent: one call at a time).
     """
 
@@ -109,9 +109,9 @@ class PeriodicProblem:
         the system when the system is linear or time-varying, so that the compiled loop
         serves; ``None`` keeps the system's callbacks.
     scheme : Scheme, optional
-        Time integrator (default :class:`~fivebar.schemes.Newmark`, average acceleration).
+        Time integrator (default :class:`~fivebar.numerics.schemes.Newmark`, average acceleration).
     options : dict
-        Further keyword arguments of :func:`~fivebar.newmark.integrate` (``rtol``,
+        Further keyword arguments of :func:`~fivebar.numerics.newmark.integrate` (``rtol``,
         ``max_iter``, ``newton`` ...).
     """
 
@@ -336,7 +336,7 @@ def shoot(period_map: PeriodMap, x0: ArrayLike, p: float | None = None, tol: flo
     solves :math:`(\boldsymbol\Phi - \mathbf I)\,\delta\mathbf x = -\mathbf G` in the least
     squares sense in the scaled variables ``x / scale`` (singular values below 1e-13 of the
     largest dropped: a multiplier at 1 leaves the orbit undetermined along its eigenvector,
-    see :mod:`fivebar.continuation`); a step that does not reduce the residual is halved, up to
+    see :mod:`fivebar.numerics.continuation`); a step that does not reduce the residual is halved, up to
     10 times.
 
     Parameters

@@ -1,6 +1,6 @@
 r"""Response curves of one mode from the modulation equations: the textbook closed forms.
 
-The modulation equations of :mod:`fivebar.multiscale` reduce, for one resonant mode, to the
+The modulation equations of :mod:`fivebar.numerics.multiscale` reduce, for one resonant mode, to the
 classical amplitude equations (Nayfeh & Mook 1979, 4.1 and 5.x), solved here in closed form
 (companion roots) and refined by Newton-Raphson on the full slow flow.
 

@@ -1,6 +1,6 @@
 r"""Time-stepping schemes of the Newmark family and their one-step analysis.
 
-The schemes that :func:`fivebar.newmark.integrate` marches with: Newmark's rule of section 4
+The schemes that :func:`fivebar.numerics.newmark.integrate` marches with: Newmark's rule of section 4
 of the paper, (4.2)-(4.3), and two dissipative members of the generalised-alpha family.  A
 scheme is four numbers (``gamma, beta, alpha_m, alpha_f``) checked against the region of
 unconditional stability; :func:`amplification_matrix` gives its one-step map on the free
@@ -32,7 +32,7 @@ second order, no numerical dissipation.  Section 5 prints
 
 **Numerical dissipation (optional).**  The generalised-alpha family of Chung & Hulbert (1993)
 evaluates the equation at intermediate points, with forces interpolated between
-:math:`t_n` and :math:`t_{n+1}` (:mod:`fivebar.newmark` gives the equation and its tangent).
+:math:`t_n` and :math:`t_{n+1}` (:mod:`fivebar.numerics.newmark` gives the equation and its tangent).
 :class:`Newmark` is :math:`\alpha_m=\alpha_f=0`; :class:`HHT` (Hilber, Hughes & Taylor 1977)
 is :math:`\alpha_m=0,\ \alpha_f=-\alpha`, :math:`\alpha\in[-\tfrac13,0]`,
 :math:`\gamma=\tfrac12-\alpha`, :math:`\beta=\tfrac14(1-\alpha)^2`, spectral radius
@@ -173,8 +173,8 @@ class Newmark(Scheme):
 
 
 #: The scheme of the generic integrator when none is given (``integrate``, the generic
-#: periodic-orbit tools of :mod:`fivebar.periodic`): the average-acceleration rule.  The
-#: linkage's default is the parameter file's (:func:`fivebar.setup.default_scheme`).
+#: periodic-orbit tools of :mod:`fivebar.numerics.periodic`): the average-acceleration rule.  The
+#: linkage's default is the parameter file's (:func:`fivebar.description.setup.default_scheme`).
 GENERIC_SCHEME: Newmark = Newmark()
 
 

@@ -1,6 +1,6 @@
 r"""Second-order systems for the time integrator: the protocol, a concrete system, step data.
 
-What :func:`fivebar.newmark.integrate` marches is a generic system
+What :func:`fivebar.numerics.newmark.integrate` marches is a generic system
 
 .. math::
 
@@ -9,7 +9,7 @@ What :func:`fivebar.newmark.integrate` marches is a generic system
 
 with ``n`` degrees of freedom and dense matrices.  A model supplies ``M, C, K, F`` (and the
 nonlinear force) through a small protocol, :class:`SecondOrderSystem` (the linkage's
-:class:`fivebar.dynamics.LinkageDynamics` is one); :class:`System` builds one from arrays or
+:class:`fivebar.model.dynamics.LinkageDynamics` is one); :class:`System` builds one from arrays or
 functions of time.  A periodic system can give its matrices at the ``S`` time points of one
 period at once, :class:`PeriodicStepData`, which also holds the LU factors of each step's
 linear tangent, so that later periods cost only triangular solves.
@@ -45,11 +45,11 @@ def _check_system(system: Any) -> None:
         if not callable(getattr(system, name, None)):
             raise InputTypeError(
                 f"system = {system!r} ({type(system).__name__}) is not allowed: give a second-order "
-                "system with matrices(t) and force(t) (fivebar.systems.System, or the linkage's dynamics)")
+                "system with matrices(t) and force(t) (fivebar.numerics.systems.System, or the linkage's dynamics)")
 
 @runtime_checkable
 class SecondOrderSystem(Protocol):
-    """What :func:`fivebar.newmark.integrate` needs from a model.
+    """What :func:`fivebar.numerics.newmark.integrate` needs from a model.
 
     Required methods: ``matrices(t) -> (M, C, K)``, each ``(n, n)`` (SI units of the model),
     and ``force(t) -> F`` of shape ``(n,)``.  Optional members: ``nonlinear(u, t) -> (f_nl, K_t)``
@@ -57,7 +57,7 @@ class SecondOrderSystem(Protocol):
     ``(n, n)``), absent or ``None`` for a linear system; ``time_invariant: bool`` (True if
     ``M, C, K`` do not depend on ``t``, so one factorisation serves every step);
     ``compiled_nonlinear(step_data) -> (force, rdata, idata)`` or None, the same nonlinear
-    force as a compiled function for the compiled loop (``fivebar._kernels.FORCE_SIG``:
+    force as a compiled function for the compiled loop (``fivebar.numerics._kernels.FORCE_SIG``:
     ``force(u, k, rdata, idata, f, Kt, tangent)`` at the state ``u`` and step point ``k`` of
     ``step_data``, its data in the float and integer arrays ``rdata``, ``idata``).
     """
@@ -148,7 +148,7 @@ class PeriodicStepData:
     """Matrices and forces of a periodic system at the ``S`` time points of one period.
 
     Time point ``k`` is ``t0 + k * period / S``; point ``S`` equals point 0 (periodicity).
-    :func:`fivebar.newmark.integrate` reads ``M, C, K, F`` from here instead of calling the
+    :func:`fivebar.numerics.newmark.integrate` reads ``M, C, K, F`` from here instead of calling the
     system, and caches the LU factorisation of each step's linear tangent (per scheme and
     step), so that later periods cost only triangular solves.  The factors are this object's,
     kept in the library's store (:mod:`fivebar.cache`, so that its byte bound counts them) for

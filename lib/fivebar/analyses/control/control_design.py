@@ -4,8 +4,8 @@ A decentralised PD servo per motor (:class:`Servo`, :func:`pd_servo`), an LQR st
 that damps the lowest elastic modes on top of it (:func:`damping_lqr`, with python-control's
 :func:`control.lqr`), and those gains designed at several crank angles and interpolated along
 the cycle (:func:`damping_schedule`, :func:`schedule`).  The plant is the reduced model of
-:mod:`fivebar.control_model`; the loops are closed along the motion by
-:mod:`fivebar.control_simulation`.
+:mod:`fivebar.analyses.control.control_model`; the loops are closed along the motion by
+:mod:`fivebar.analyses.control.control_simulation`.
 """
 
 from __future__ import annotations

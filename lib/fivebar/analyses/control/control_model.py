@@ -1,9 +1,9 @@
 r"""Modal reduction of the free-rotor linkage to a state-space model (python-control).
 
-The full-order model is :class:`fivebar.free_rotors.FlexibleLinkage`; this module keeps its two
+The full-order model is :class:`fivebar.model.free_rotors.FlexibleLinkage`; this module keeps its two
 rigid modes and a few elastic modes at a frozen configuration and writes the result as a
 :class:`control.StateSpace` with the motor torques as inputs and the outputs of
-:data:`fivebar.free_rotors.OUTPUTS`.
+:data:`fivebar.model.free_rotors.OUTPUTS`.
 
 **Modal reduction.**  With the elastic modes :math:`\boldsymbol\Phi_e` (mass-normalised,
 :math:`\boldsymbol\Phi_e^\top \mathbf M_p \boldsymbol\Phi_r = \mathbf 0`),
@@ -298,7 +298,7 @@ def models_along_cycle(
     """Linear models at the configurations of the default crank laws.
 
     ``crank_angles`` (rad) are angles of crank AB from its initial angle; crank DE follows
-    with the speed ratio (as :func:`fivebar.modal.frequencies_along_cycle`).
+    with the speed ratio (as :func:`fivebar.analyses.modal.frequencies_along_cycle`).
     """
     th1, th4 = _cycle_angles(params, crank_angles)
     fl = kwargs.pop("linkage", None) or FlexibleLinkage(

@@ -1,7 +1,7 @@
 r"""Closed-loop simulation of the free-rotor linkage along the nominal motion.
 
 **Along the motion.**  Linearised about the nominal motion (crank laws
-:func:`fivebar.kinematics.crank_laws`), with :math:`\mathbf p` the deviation from the nominal
+:func:`fivebar.model.kinematics.crank_laws`), with :math:`\mathbf p` the deviation from the nominal
 rigid configuration, the kineto-elastodynamic equation of (2.7) with free rotors reads
 
 .. math::
@@ -15,10 +15,10 @@ accelerations), :math:`\boldsymbol\tau_{ff}` the inverse dynamics of the rigid m
 (:func:`feedforward`, equal to :math:`\boldsymbol\Phi_r^\top\mathbf M_p\mathbf a_r`, so it
 balances the rigid modes exactly), and :math:`\boldsymbol\tau_{fb} = -\mathbf G_p(t)\mathbf p
 - \mathbf G_v(t)\dot{\mathbf p}` the servo and damping feedback.  :func:`simulate_cycle`
-integrates it with :func:`fivebar.newmark.integrate`.  With the rotors held on the nominal
+integrates it with :func:`fivebar.numerics.newmark.integrate`.  With the rotors held on the nominal
 motion (an ideal servo) it is exactly the linear prescribed-motion model.
 
-What the model leaves out is listed in :mod:`fivebar.free_rotors`.  :func:`closed_loop_multipliers`
+What the model leaves out is listed in :mod:`fivebar.model.free_rotors`.  :func:`closed_loop_multipliers`
 says whether the loop is stable along the motion.  The left-out velocity terms are of the order
 :math:`\Omega^2 J` on the rigid modes (on :math:`\mathbf p = \boldsymbol\Phi_r(t)\boldsymbol\eta`
 the term :math:`\mathbf M_p\ddot{\mathbf p}` brings :math:`2\boldsymbol\Phi_r^\top\mathbf M_p\dot{\boldsymbol\Phi}_r
@@ -116,7 +116,7 @@ class CycleSimulation:
 
 def _reference(ref, fl: FlexibleLinkage, params: Params, S: int) -> tuple[NDArray, NDArray]:
     """The expected elastic motion (p, p') at the S steps of a period, from a prescribed-motion
-    :class:`fivebar.steady.SteadyState` (rotors on the crank laws) or a :class:`CycleSimulation`."""
+    :class:`fivebar.analyses.steady.SteadyState` (rotors on the crank laws) or a :class:`CycleSimulation`."""
     if isinstance(ref, CycleSimulation):
         if ref.steps_per_period != S:
             raise InputError(f"reference has {ref.steps_per_period} steps per period: it must have {S}")
@@ -216,7 +216,7 @@ def simulate_cycle(
     ``sim = simulate_cycle(setup, servo)``; ``sim.peak_to_peak("L2")``.
 
     Integrates, with the set-up's scheme (the parameter file's generalised-alpha by default,
-    errata E26; :func:`fivebar.newmark.integrate`) on the full-order model of :class:`FlexibleLinkage` (no modal truncation),
+    errata E26; :func:`fivebar.numerics.newmark.integrate`) on the full-order model of :class:`FlexibleLinkage` (no modal truncation),
 
     M_p p'' + C_p p' + K_p p = -M_p a_r + B (tau_ff - G_s (p, p') - G_d (p - p_ref, p' - p_ref')),
 
@@ -230,7 +230,7 @@ def simulate_cycle(
     Parameters
     ----------
     setup
-        The problem, a :class:`fivebar.setup.Setup` (its crank speed, S and scheme; motors,
+        The problem, a :class:`fivebar.description.setup.Setup` (its crank speed, S and scheme; motors,
         nonlinearity and mesh do not apply here), or a Params (``Setup(params)``).
     servo
         The PD servo (it acts on the deviation of the measured angle from the crank laws).
@@ -238,7 +238,7 @@ def simulate_cycle(
         ``phi -> (2, 2, n)`` scheduled gains (crank angle in rad), or ``None``.
     reference
         The expected elastic motion for the damping loop: a prescribed-motion
-        :class:`fivebar.steady.SteadyState` with the same speed and ``steps_per_period``
+        :class:`fivebar.analyses.steady.SteadyState` with the same speed and ``steps_per_period``
         (an ideal servo's elastic motion), or a :class:`CycleSimulation`; ``None``: zero.
     periods
         Periods of the motion to integrate (the last one is taken as the steady state).
