@@ -100,6 +100,18 @@ def test_cache_skips_unchanged_and_recomputes_changed_parameters(written, tmp_pa
     assert datasets.write_datasets(copy, names=["resonance_speeds"])["resonance_speeds"] > 0
 
 
+def test_the_source_hash_reads_every_module_of_every_subpackage():
+    """The files hashed are the modules the import system finds in the package (pkgutil)."""
+    import pkgutil
+
+    modules = {m.name for m in pkgutil.walk_packages(fivebar.__path__, "fivebar.")}
+    root = Path(fivebar.__file__).parent
+    hashed = {".".join(("fivebar",) + p.relative_to(root).with_suffix("").parts).removesuffix(".__init__")
+              for p in datasets._library_sources()}
+    assert hashed == modules | {"fivebar"}
+    assert {"fivebar.numerics.newmark", "fivebar.model.dynamics", "fivebar.analyses.control.control_model"} <= hashed
+
+
 def test_bad_names_and_files_are_refused(tmp_path):
     with pytest.raises(ValueError, match="figure7"):
         datasets.write_datasets(tmp_path, names=["figure7"])

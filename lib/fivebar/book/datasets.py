@@ -192,10 +192,21 @@ def source_hash(params_path: str | Path = DEFAULT_PARAMS_PATH) -> str:
     h = hashlib.sha256()
     h.update(_file("params_path", params_path).read_bytes())
     h.update(__version__.encode())
-    for src in sorted(Path(__file__).resolve().parent.glob("*.py")):
-        h.update(src.name.encode())
+    root = _library_root()
+    for src in _library_sources():
+        h.update(src.relative_to(root).as_posix().encode())
         h.update(src.read_bytes())
     return h.hexdigest()
+
+
+def _library_root() -> Path:
+    """The folder of the package ``fivebar`` (this module is in its subpackage ``book``)."""
+    return Path(__file__).resolve().parents[1]
+
+
+def _library_sources() -> list[Path]:
+    """Every source file of the library, in every subpackage, in a fixed order."""
+    return sorted(_library_root().rglob("*.py"))
 
 
 def _provenance(ds: Dataset, params_path: Path, digest: str, body: bytes, partial: str = "") -> str:
