@@ -50,6 +50,7 @@ import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from fivebar.description.setup import Setup  # noqa: E402
+from fivebar.model.dynamics import linkage_dynamics  # noqa: E402
 
 
 def _t(fn, repeats=1):
@@ -94,7 +95,7 @@ def step_costs(repeats):
     out = {}
     for nl in (False, True):
         s = Setup(load_params(), motors=False, nonlinear=nl)
-        dyn = s.dynamics()
+        dyn = linkage_dynamics(s)
         orb = shooting(s)
 
         def run():

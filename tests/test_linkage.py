@@ -15,6 +15,7 @@ from fivebar.model.kinematics import DeadPointError, GeometryError, constant_spe
 from fivebar.description.linkage import Drive, LinkageError
 from fivebar.analyses.modal import frequencies_along_cycle
 from fivebar.description.setup import Setup
+from fivebar.model.dynamics import linkage_dynamics
 
 FIVE = load_params()
 FOUR = load_params([fivebar.DEFAULT_PARAMS_PATH, fivebar.FOURBAR_PARAMS_PATH])
@@ -274,7 +275,7 @@ def test_four_bar_nonlinear_force_between_the_step_times():
     """Off the step times the nonlinear force is computed from the crank angles (one crank for
     the four-bar; two were unpacked before): it joins the sampled values at the step times
     continuously, its change from a step time first order in the time offset."""
-    dyn = Setup(FOUR, crank_speed_rpm=600, steps_per_period=40, motors=False).dynamics()
+    dyn = linkage_dynamics(Setup(FOUR, crank_speed_rpm=600, steps_per_period=40, motors=False))
     rng = np.random.default_rng(3)
     u = 1e-3 * rng.standard_normal(dyn.n)
     f0, K0 = dyn.nonlinear(u, 5 * dyn.dt)  # a step time: the sampled configuration

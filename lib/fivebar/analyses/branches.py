@@ -40,6 +40,7 @@ from ..numerics.continuation import Branch, ContinuationError, continuation, ite
 from ..errors import FivebarError, InputError
 from ..numerics.newmark import NewtonConvergenceError
 from ..description.params import Params
+from ..model.dynamics import linkage_dynamics
 from ..numerics.periodic import PeriodicOrbit, _one_blas_thread, shoot
 from ..description.setup import Setup, analysis, as_setup
 from .steady import SteadyState, _monodromy_period, _period, steady_state
@@ -108,7 +109,7 @@ class LinkagePeriodMap:
             hit = self._dyn.get(p)
         if hit is None:  # built outside the lock: another thread's value goes on meanwhile
             s = _setup_at(self.setup, self.parameter, p)
-            hit = (s, s.dynamics(keep=False))
+            hit = (s, linkage_dynamics(s, keep=False))
             with self._lock:
                 while len(self._dyn) >= 4:
                     self._dyn.pop(next(iter(self._dyn)))

@@ -22,6 +22,7 @@ from ..numerics.modal_equations import Harmonic, ModalSystem, MultiscaleError, P
 from ..numerics.multiscale import DEFAULT_DETUNING, ModulationSteadyState, SlowFlow, modulation_equations
 from .response import Response
 from ..description.setup import analysis, as_setup
+from ..model.dynamics import linkage_dynamics
 
 __all__ = [
     "ModalModel",
@@ -359,7 +360,7 @@ def multiple_scales(
     MultipleScalesResponse
         A :class:`fivebar.analyses.response.Response`.
     """
-    dyn = as_setup(setup).dynamics()
+    dyn = linkage_dynamics(as_setup(setup))
     model = modal_model(
         dyn, n_modes, basis=basis, frequencies=frequencies, kinematic=kinematic, fourier_terms=fourier_terms,
         nonlinear=dyn.nonlinear is not None, parametric=parametric,
@@ -416,7 +417,7 @@ def initial_state(setup, start: str = "multiple scales", **kwargs) -> tuple[Arra
         :math:`\mathbf K(0)^{-1}\mathbf F(0)` with its time derivative (central difference).
     """
     setup = as_setup(setup)
-    dyn = setup.dynamics()
+    dyn = linkage_dynamics(setup)
     if start == "multiple scales":
         ms = multiple_scales(setup, **kwargs)
         return ms.u[0].copy(), ms.v[0].copy()
@@ -496,7 +497,7 @@ def compare_starts(
     rows = []
     for s in np.atleast_1d(np.asarray(speeds_rpm, float)):
         at = base.replace(crank_speed_rpm=float(s))
-        dyn = at.dynamics()
+        dyn = linkage_dynamics(at)
         ref = shooting(at)
         ms = multiple_scales(at, **kwargs)
         row = {"speed (r/min)": float(s)}

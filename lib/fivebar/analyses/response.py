@@ -85,7 +85,7 @@ class Response:
     def __post_init__(self) -> None:
         if not isinstance(self.dynamics, LinkageDynamics):
             raise InputError(f"dynamics = {type(self.dynamics).__name__} is not allowed: give a "
-                             "fivebar.model.dynamics.LinkageDynamics (Setup(...).dynamics())")
+                             "fivebar.model.dynamics.LinkageDynamics (linkage_dynamics(Setup(...)))")
         n = self.dynamics.n
         self.t = array("t", self.t, shape=(None,))
         N = len(self.t)

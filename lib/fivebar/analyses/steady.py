@@ -49,7 +49,7 @@ from numpy.typing import NDArray
 
 from ..cache import STORE
 from ..errors import FivebarError, InputError, array, flag, number
-from ..model.dynamics import LinkageDynamics
+from ..model.dynamics import LinkageDynamics, linkage_dynamics
 from ..numerics.eigen import frozen_modes
 from ..numerics.newmark import NewtonConvergenceError, integrate
 from ..numerics.schemes import Scheme
@@ -261,7 +261,7 @@ def _remedy(scheme: Scheme | None, S: int) -> str:
 def _problem(setup: Setup | Params, argument: str = "setup") -> tuple[LinkageDynamics, Scheme, Setup]:
     """The dynamics, the scheme and the set-up of a problem (a Setup, or a Params)."""
     s = as_setup(setup, argument)
-    return s.dynamics(), s.scheme, s
+    return linkage_dynamics(s), s.scheme, s
 
 
 def _energy_norm(dyn: LinkageDynamics, u: NDArray, v: NDArray) -> NDArray:
@@ -760,7 +760,7 @@ def _to_tolerance(s: Setup, method: str, tol: float) -> SteadyState:
     tried: list[str] = []
     while S <= _TOL_MAX_STEPS:
         sS = s.replace(steps_per_period=S)
-        dyn = sS.dynamics()
+        dyn = linkage_dynamics(sS)
         try:
             if method == "shooting":
                 if prev is not None:

@@ -9,7 +9,7 @@ default lives once.  A field left ``None`` takes the parameter file's entry
 (``Setup(params).steps_per_period == params.steps_per_period``), and the time integrator is
 built from the file's ``[simulation] scheme`` and ``rho_infinity`` (errata E26).
 :class:`~fivebar.model.dynamics.LinkageDynamics` samples a set-up's equation of motion
-(``setup.dynamics()``, built once).
+(:func:`~fivebar.model.dynamics.linkage_dynamics`, built once).
 
 >>> s = Setup(load_params(), crank_speed_rpm=300)
 >>> steady_state(s.replace(steps_per_period=1600))
@@ -25,7 +25,6 @@ from typing import Any
 
 from fractions import Fraction
 
-from ..cache import STORE
 from ..errors import InputError, InputTypeError, flag, memory, number
 from ..numerics.schemes import GeneralizedAlpha, Newmark, Scheme
 from .params import Params
@@ -106,7 +105,8 @@ def _estimated_dofs(epl: tuple[int, int, int, int] | None, motors: bool) -> int:
 class Setup:
     """A linkage computation's set-up; ``None`` fields take the parameter file's entries.
 
-    ``s = Setup(params)``; ``s.replace(crank_speed_rpm=300)``; ``s.dynamics()``.
+    ``s = Setup(params)``; ``s.replace(crank_speed_rpm=300)``;
+    ``linkage_dynamics(s)`` (:func:`fivebar.model.dynamics.linkage_dynamics`).
 
     Attributes
     ----------
@@ -181,24 +181,6 @@ class Setup:
         if self.crank_speed_rpm == self.params.crank_speed_rpm:
             return self.params
         return self.params.replace(**{"assumptions.crank_speed_rpm": self.crank_speed_rpm})
-
-    def dynamics(self, keep: bool = True):
-        """The :class:`~fivebar.model.dynamics.LinkageDynamics` of this set-up, built once and kept in
-        the library's store (:mod:`fivebar.cache`): equal set-ups (the scheme aside, which the
-        dynamics do not depend on) share one.  ``keep=False``: the stored one if there is one,
-        else built and not stored, for a caller that keeps its own (the period map of a
-        continuation, nearly every period of which is at a new speed)."""
-        key = ("setup.dynamics", self.params, self.crank_speed_rpm, self.steps_per_period, self.motors,
-               self.nonlinear, self.elements_per_link)
-        if not flag("keep", keep):
-            hit = STORE.lookup(key)
-            return self._build_dynamics() if hit is None else hit
-        return STORE.get(key, self._build_dynamics)
-
-    def _build_dynamics(self):
-        from ..model.dynamics import LinkageDynamics
-
-        return LinkageDynamics(self)
 
     def _check_memory(self) -> None:
         """Refuse a set-up whose sampled matrices would not fit in memory (a MemoryError of

@@ -48,7 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..numerics.eigen import frozen_modes
-from ..errors import ComputationError, InputError
+from ..errors import ComputationError, InputError, flag
 from .assembly import Model, build_model
 from ..cache import STORE
 from .kinematics import crank_laws, rigid_state
@@ -58,7 +58,7 @@ from .nonlinear import ElementGeometry, NonlinearForce
 from ..description.params import Params
 from ..description.setup import Setup, as_setup
 
-__all__ = ["LinkageDynamics", "modal_damping"]
+__all__ = ["LinkageDynamics", "linkage_dynamics", "modal_damping"]
 
 # Kept in the library's one store (:mod:`fivebar.cache`), under these kinds of key:
 #: (params without the speed, S, mesh, motors) -> the step data at 1 rad/s: M, C, K and
@@ -105,7 +105,7 @@ def modal_damping(M: NDArray, K: NDArray, zeta: float) -> NDArray:
 class LinkageDynamics:
     """Equation (2.7) of the linkage subsystem, sampled at the S steps of one period.
 
-    ``dyn = LinkageDynamics(setup)`` (or ``setup.dynamics()``, the same built once and kept);
+    ``dyn = LinkageDynamics(setup)`` (or ``linkage_dynamics(setup)``, the same built once and kept);
     ``dyn.step_data`` feeds :func:`fivebar.numerics.newmark.integrate`, and ``dyn`` itself is a
     :class:`fivebar.numerics.systems.SecondOrderSystem` (matrices at any time, nonlinear force).
 
@@ -416,3 +416,17 @@ class LinkageDynamics:
                         f"no quasi-static equilibrium at t = {t:.6g} s: the load continuation stalled at "
                         f"{lam:.3g} of the load (residual {rn:.3e} of |F| = {scale:.3e})")
         return u
+
+
+def linkage_dynamics(setup: Setup, keep: bool = True) -> LinkageDynamics:
+    """The :class:`LinkageDynamics` of a set-up, built once and kept in the library's store
+    (:mod:`fivebar.cache`): equal set-ups (the scheme aside, which the dynamics do not depend
+    on) share one.  ``keep=False``: the stored one if there is one, else built and not stored,
+    for a caller that keeps its own (the period map of a continuation, nearly every period of
+    which is at a new speed)."""
+    key = ("setup.dynamics", setup.params, setup.crank_speed_rpm, setup.steps_per_period, setup.motors,
+           setup.nonlinear, setup.elements_per_link)
+    if not flag("keep", keep):
+        hit = STORE.lookup(key)
+        return LinkageDynamics(setup) if hit is None else hit
+    return STORE.get(key, lambda: LinkageDynamics(setup))
