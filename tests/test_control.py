@@ -11,8 +11,8 @@ import pytest
 from crank_laws import general_laws as _general_laws
 
 from fivebar import FivebarError, load_params, natural_frequencies
-from fivebar.analyses.control.control_design import Servo, damping_lqr, pd_servo, schedule
-from fivebar.analyses.control.control_model import control_modal_model, linear_model, models_along_cycle
+from fivebar.analyses.control.control_design import damping_lqr, pd_servo, schedule
+from fivebar.analyses.control.control_model import Servo, control_modal_model, linear_model, models_along_cycle
 from fivebar.analyses.control.control_simulation import CycleSimulation, closed_loop_multipliers, simulate_cycle
 from fivebar.model.free_rotors import DEFAULT_OUTPUTS, FlexibleLinkage, elastic_frequencies, feedforward, rigid_inertia
 from fivebar.model.elements import motor_element

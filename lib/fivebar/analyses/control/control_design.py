@@ -1,6 +1,6 @@
 """Controller design for the free-rotor linkage: PD servo, LQR damping, gain scheduling.
 
-A decentralised PD servo per motor (:class:`Servo`, :func:`pd_servo`), an LQR state feedback
+A decentralised PD servo per motor (:class:`~fivebar.analyses.control.control_model.Servo`, :func:`pd_servo`), an LQR state feedback
 that damps the lowest elastic modes on top of it (:func:`damping_lqr`, with python-control's
 :func:`control.lqr`), and those gains designed at several crank angles and interpolated along
 the cycle (:func:`damping_schedule`, :func:`schedule`).  The plant is the reduced model of
@@ -10,67 +10,24 @@ the cycle (:func:`damping_schedule`, :func:`schedule`).  The plant is the reduce
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import control
 import numpy as np
 import scipy.interpolate
 from numpy.typing import ArrayLike, NDArray
 
-from .control_model import ControlModalModel, control_modal_model
+from .control_model import _MEASURES, ControlModalModel, Servo, control_modal_model
 from ...errors import InputError
 from ...model.free_rotors import FlexibleLinkage, _count, _cycle_angles, _finite, _positive, rigid_inertia
 from ...description.params import Params
 
 __all__ = [
-    "Servo",
     "damping_lqr",
     "damping_schedule",
     "pd_servo",
     "schedule",
 ]
-
-_MEASURES = ("rotor", "crank")
-
-
-@dataclass(frozen=True)
-class Servo:
-    """Decentralised PD servo, one per motor: tau_i = -kp_i e_i - kd_i e_i'.
-
-    ``e_i`` is the deviation of the measured angle from the nominal crank law: the rotor angle
-    (``measure="rotor"``, the motor's encoder, collocated) or the crank-root angle
-    (``measure="crank"``, through the shaft).  ``kp`` in N m/rad, ``kd`` in N m s/rad.
-    """
-
-    kp: tuple[float, float]
-    kd: tuple[float, float]
-    measure: str = "rotor"
-
-    def __post_init__(self) -> None:
-        for name in ("kp", "kd"):
-            v = getattr(self, name)
-            try:
-                ok = len(v) == 2 and all(not isinstance(x, bool) and math.isfinite(x) and x >= 0 for x in v)
-            except TypeError:
-                ok = False
-            if not ok:
-                raise InputError(f"Servo.{name} = {v!r} is not allowed: give two finite numbers >= 0")
-        if self.measure not in _MEASURES:
-            raise InputError(f"Servo.measure = {self.measure!r} is not allowed: use one of {list(_MEASURES)}")
-
-    def gains(self, linkage: FlexibleLinkage) -> tuple[NDArray, NDArray]:
-        """Physical gains (G_p, G_v), each (2, n): tau = -G_p p - G_v p'."""
-        idx = linkage.rotor if self.measure == "rotor" else linkage.crank
-        Gp = np.zeros((2, linkage.n))
-        Gv = np.zeros((2, linkage.n))
-        for i in (0, 1):
-            Gp[i, idx[i]] = self.kp[i]
-            Gv[i, idx[i]] = self.kd[i]
-        return Gp, Gv
-
-
 
 def pd_servo(
     params: Params, bandwidth: float, zeta: float = 0.7, measure: str = "rotor", samples: int = 36

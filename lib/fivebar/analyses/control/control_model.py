@@ -22,9 +22,9 @@ rotation dissipates nothing).  :math:`\boldsymbol\eta_r` is the rigid part of th
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import control
 import numpy as np
@@ -34,17 +34,55 @@ from ...errors import InputError
 from ...model.free_rotors import DEFAULT_OUTPUTS, FlexibleLinkage, _count, _cycle_angles, _finite, _outputs
 from ...description.params import Params
 
-if TYPE_CHECKING:  # the servo is designed in control_design, which imports this module
-    from .control_design import Servo
-
 __all__ = [
     "ControlModalModel",
+    "Servo",
     "control_modal_model",
     "linear_model",
     "models_along_cycle",
 ]
 
 _INPUTS = ("tau1", "tau4")
+
+
+# --- the servo -----------------------------------------------------------------------------------
+_MEASURES = ("rotor", "crank")
+
+
+@dataclass(frozen=True)
+class Servo:
+    """Decentralised PD servo, one per motor: tau_i = -kp_i e_i - kd_i e_i'.
+
+    ``e_i`` is the deviation of the measured angle from the nominal crank law: the rotor angle
+    (``measure="rotor"``, the motor's encoder, collocated) or the crank-root angle
+    (``measure="crank"``, through the shaft).  ``kp`` in N m/rad, ``kd`` in N m s/rad.
+    """
+
+    kp: tuple[float, float]
+    kd: tuple[float, float]
+    measure: str = "rotor"
+
+    def __post_init__(self) -> None:
+        for name in ("kp", "kd"):
+            v = getattr(self, name)
+            try:
+                ok = len(v) == 2 and all(not isinstance(x, bool) and math.isfinite(x) and x >= 0 for x in v)
+            except TypeError:
+                ok = False
+            if not ok:
+                raise InputError(f"Servo.{name} = {v!r} is not allowed: give two finite numbers >= 0")
+        if self.measure not in _MEASURES:
+            raise InputError(f"Servo.measure = {self.measure!r} is not allowed: use one of {list(_MEASURES)}")
+
+    def gains(self, linkage: FlexibleLinkage) -> tuple[NDArray, NDArray]:
+        """Physical gains (G_p, G_v), each (2, n): tau = -G_p p - G_v p'."""
+        idx = linkage.rotor if self.measure == "rotor" else linkage.crank
+        Gp = np.zeros((2, linkage.n))
+        Gv = np.zeros((2, linkage.n))
+        for i in (0, 1):
+            Gp[i, idx[i]] = self.kp[i]
+            Gv[i, idx[i]] = self.kd[i]
+        return Gp, Gv
 
 
 # --- the reduced model ---------------------------------------------------------------------------

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .control_design import Servo
+from .control_model import Servo
 from ...errors import InputError, InputTypeError
 from ...model.free_rotors import FlexibleLinkage, _count, _positive, feedforward
 from ...model.kinematics import crank_laws
