@@ -14,7 +14,7 @@ import pytest
 import fivebar
 from fivebar.analyses.branches import brute_force_diagram, describe_speed, follow, linkage_period_map
 from fivebar.errors import FivebarError
-from fivebar.analyses.steady import steady_state
+from fivebar.analyses.branches import steady_state
 from fivebar.description.setup import Setup
 from fivebar.model.dynamics import linkage_dynamics
 

@@ -244,7 +244,7 @@ def test_reference_from_the_prescribed_steady_state():
     """The ideal-servo elastic motion mapped into the free-rotor coordinates gives back the
     steady state's own midpoint deflection (fivebar.analyses.steady.SteadyState.midpoint)."""
     from fivebar.analyses.control.control_simulation import _reference
-    from fivebar.analyses.steady import steady_state
+    from fivebar.analyses.branches import steady_state
 
     S = 40
     ref = steady_state(Setup(P, steps_per_period=S, nonlinear=False))
@@ -260,7 +260,7 @@ def test_simulation_steady_state_and_reference():
     """Along the nominal motion at the default speed the PD servo keeps the rotors within
     0.1 mrad and the deflection within 1 % of the ideal servo's; a damping loop acting on the
     deviation from the servo's own steady motion leaves that steady motion unchanged."""
-    from fivebar.analyses.steady import steady_state
+    from fivebar.analyses.branches import steady_state
 
     S = 400
     servo = pd_servo(P, 5.5)

@@ -10,7 +10,8 @@ from fivebar import clear_cache, load_params
 from fivebar.cache import STORE
 from fivebar.model.dynamics import LinkageDynamics, linkage_dynamics, modal_damping
 from fivebar.numerics.schemes import GeneralizedAlpha, Newmark
-from fivebar.analyses.steady import SteadyStateError, march, shooting, steady_state
+from fivebar.analyses.branches import steady_state
+from fivebar.analyses.steady import SteadyStateError, march, shooting
 from fivebar.description.setup import Setup
 
 P = load_params()

@@ -164,7 +164,7 @@ def _analyses():
     from fivebar.analyses.control.control_simulation import closed_loop_multipliers, simulate_cycle
 
     return [
-        ("steady_state", steady.steady_state, ()), ("shooting", steady.shooting, ()), ("march", steady.march, ()),
+        ("steady_state", branches.steady_state, ()), ("shooting", steady.shooting, ()), ("march", steady.march, ()),
         ("transient", response.transient, ()), ("quasi_static", response.quasi_static, ()),
         ("radau", response.radau, ([0.0, 1e-3],)),
         ("sweep_point", sweep.sweep_point, ()), ("speed_sweep", sweep.speed_sweep, ([100.0],)),

@@ -172,7 +172,7 @@ def test_the_api_walk_sees_the_library():
     # the renamed names of issue 21.6 are walked (a walk that sees nothing checks nothing)
     for q in ("fivebar.analyses.response.Response.midpoint_mm", "fivebar.analyses.response.Response.crank_angle_deg",
               "fivebar.analyses.response.Response.peak_to_peak_mm", "fivebar.book.animation.LinkageFrames",
-              "fivebar.description.setup.Setup", "fivebar.analyses.steady.steady_state"):
+              "fivebar.description.setup.Setup", "fivebar.analyses.branches.steady_state"):
         assert q in objs
     assert len(objs) > 300
 

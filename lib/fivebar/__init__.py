@@ -33,7 +33,7 @@ _FACADE = {
     "Response": "analyses.response", "quasi_static": "analyses.response", "radau": "analyses.response",
     "transient": "analyses.response",
     "SteadyState": "analyses.steady", "SteadyStateError": "analyses.steady", "ValidityWarning": "analyses.steady",
-    "steady_state": "analyses.steady",
+    "steady_state": "analyses.branches",
     "SweepInterrupted": "analyses.sweep", "speed_sweep": "analyses.sweep",
 }
 

@@ -24,12 +24,16 @@ The glue between the linkage (:class:`fivebar.description.setup.Setup`, the peri
   different period-1 orbit, no periodic motion, or a divergence; the generic
   :func:`fivebar.numerics.continuation.settle`).  :func:`explain_steady` gives the same report for a
   solved steady state; ``steady_state(..., explain=True)`` attaches it to its result.
+* :func:`steady_state`: the periodic steady state of one set-up (the shooting or the march of
+  :mod:`fivebar.analyses.steady`), with that report on request.  It lives here, above both the
+  solvers and the report, so that the solvers need nothing of the branches.
 """
 
 from __future__ import annotations
 
 import math
 import threading
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -37,16 +41,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..numerics.continuation import Branch, ContinuationError, continuation, iterated_map, settle, switch_period_doubling
-from ..errors import FivebarError, InputError
+from ..errors import FivebarError, InputError, flag, number
 from ..numerics.newmark import NewtonConvergenceError
 from ..description.params import Params
 from ..model.dynamics import linkage_dynamics
 from ..numerics.periodic import PeriodicOrbit, _one_blas_thread, shoot
 from ..description.setup import Setup, analysis, as_setup
-from .steady import SteadyState, _monodromy_period, _period, steady_state
+from .steady import SteadyState, ValidityWarning, _monodromy_period, _period, _to_tolerance, march, shooting
 
 __all__ = ["BruteForceDiagram", "LinkageBranch", "LinkagePeriodMap", "SpeedReport", "brute_force_diagram", "describe_speed",
-           "explain_steady", "follow", "follow_period_doubling", "linkage_period_map"]
+           "explain_steady", "follow", "follow_period_doubling", "linkage_period_map", "steady_state"]
 
 Array = NDArray[np.float64]
 
@@ -646,3 +650,74 @@ def _describe(f: LinkagePeriodMap, p: float, st: SteadyState, periods: int,
                            "other period-1", orb, o1)
     return SpeedReport(head + f"no periodic motion of period 1 or 2 within {periods} periods "
                        "(quasi-periodic, chaotic or slowly settling)", "no periodic motion", orb)
+
+
+@analysis
+def steady_state(
+    setup: Setup | Params,
+    method: str = "shooting",
+    tol: float | None = None,
+    explain: bool = False,
+) -> SteadyState:
+    """The periodic steady state of the linkage over one period of the motion.
+
+    ``res = steady_state(params)`` or ``steady_state(setup.replace(crank_speed_rpm=300,
+    steps_per_period=1600))``;
+    ``res.midpoint_mm("L2", "transverse")`` (mm over the S + 1 samples from crank angle 0),
+    ``res.floquet_multipliers``, ``res.stable``, ``res.note``, ``res.bending_stress()`` (Pa).
+    ``steady_state(params, tol=0.01)`` chooses S itself for 1 % on the midpoint deflections
+    (fastest for a given accuracy, see ``tol``).
+
+    Parameters
+    ----------
+    setup
+        The problem: a :class:`fivebar.description.setup.Setup` (crank speed, S, motors, nonlinearity,
+        mesh, scheme; the paper's rule is ``Setup(params, scheme=fivebar.PAPER_SCHEME)``), or a
+        :class:`fivebar.description.params.Params` meaning ``Setup(params)`` (every setting from the
+        parameter file: S = ``steps_per_period``, the ``[simulation] scheme``).
+    method
+        "shooting" (damped Newton on periodicity, with Floquet multipliers) or "march" (period
+        by period from rest).
+    tol
+        Relative accuracy asked of the transverse midpoint deflections of L2 and L3 over the
+        period (Figure 6), for example 0.01; ``None`` (default) solves at the set-up's S.  With
+        ``tol`` the library chooses S (the set-up's S is not used): it solves at S = 50, 100, 200, ... (each from the previous
+        orbit, sampling no step time twice; after a first speed, each from the orbit of the
+        last speed of the same problem, scaled) until the deflection curves of two successive S
+        differ by at most ``tol`` of their peak-to-peak value at every sample, and returns the
+        finer one.  For the second-order schemes that change over-estimates the finer
+        solution's error in the asymptotic range (about three times).  ``res.accuracy`` holds
+        the S compared, the estimate and every step tried; ``res.note`` says what was chosen.
+    explain
+        Where the orbit is unstable (``res.stable`` False, ``res.note`` says so), also find
+        what the linkage does there: a march of 400 periods from the orbit, disturbed along
+        its most unstable Floquet direction, names a period-2 orbit, another period-1 orbit,
+        no periodic motion or a divergence (:func:`fivebar.analyses.branches.explain_steady`, the report of
+        :func:`fivebar.analyses.branches.describe_speed`, which with a followed branch also names the
+        nearest bifurcation).  The report is ``res.explained`` and ends ``res.note``.  Default False: an unstable orbit costs nothing
+        more (its note says how to ask).  Needs ``method="shooting"`` (the multipliers);
+        computes the multipliers of a nonlinear orbit (one period with the monodromy matrix).
+    """
+    if method not in ("shooting", "march"):
+        raise InputError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
+    explain = flag("explain", explain)
+    if explain and method != "shooting":
+        raise InputError(f"explain = True and method = {method!r} are not allowed together: explain needs the "
+                         "Floquet multipliers of shooting (method='shooting')")
+    if tol is not None:
+        tol = number("tol", tol, low=0.0, high=1.0, low_open=True, high_open=True)
+    s = as_setup(setup)
+    if tol is not None:
+        res = _to_tolerance(s, method, float(tol))
+    elif method == "shooting":
+        res = shooting(s)
+    else:
+        res = march(s)
+    if explain and res.stable is False:
+        res._cache["explained"] = explain_steady(res)
+    outside = res._outside()
+    if outside:
+        warnings.warn(f"the steady state at {s.crank_speed_rpm:g} r/min is outside the model's validity: "
+                      + "; ".join(outside) + " (SteadyState.validity has the checks)", ValidityWarning,
+                      stacklevel=3)  # (steady_state, its analysis wrapper, the caller)
+    return res

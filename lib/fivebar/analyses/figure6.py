@@ -20,7 +20,8 @@ from ..errors import FivebarError
 from ..description.params import Params
 from ..model.rigid import motor_torques
 from ..description.setup import Setup, analysis, as_setup
-from .steady import SteadyState, steady_state
+from .branches import steady_state
+from .steady import SteadyState
 
 __all__ = ["Variant", "ASSUMPTION_VARIANTS", "assumption_effects", "speed_table"]
 
@@ -102,7 +103,7 @@ def assumption_effects(
     variant that differs from it (a variant whose changes are the values already chosen is
     left out), with the change of the L2 and L3 transverse peak-to-peak deflection from the
     first row (%), 0 where it is below what the steady states resolve (1e-6 %: round-off
-    of a variant that cannot move the linkage).  The steady states come from :func:`fivebar.analyses.steady.steady_state` of the
+    of a variant that cannot move the linkage).  The steady states come from :func:`fivebar.analyses.branches.steady_state` of the
     problem (a :class:`fivebar.description.setup.Setup`, or a Params: ``Setup(params)``, the geometric
     nonlinearity and the library's default step and scheme, converged for any sensible
     parameters; the paper's S = 100 and rule fail where the deflections are large, and the

@@ -9,7 +9,7 @@ stress of every link, a plot.  Every computation in time returns one, as python-
 ``TimeResponseData`` serves every simulation:
 
 * the periodic steady state (:func:`fivebar.analyses.steady.shooting`, :func:`fivebar.analyses.steady.march`,
-  :func:`fivebar.analyses.steady.steady_state`, a point of a branch): a
+  :func:`fivebar.analyses.branches.steady_state`, a point of a branch): a
   :class:`fivebar.analyses.steady.SteadyState`, a Response with the Floquet data, accuracy, note and
   validity of the orbit;
 * a transient from a given state (:func:`transient`): the Newmark march without the
@@ -34,13 +34,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..cache import memoised
-from ..model.dynamics import LinkageDynamics
+from ..model.dynamics import LinkageDynamics, linkage_dynamics
 from ..model.elements import shape_functions
 from ..errors import ComputationError, InputError, array, number
 from ..numerics.newmark import integrate
 from ..numerics.schemes import Scheme
 from ..description.params import Params
-from ..description.setup import Setup, analysis
+from ..description.setup import Setup, analysis, as_setup
 
 __all__ = ["DIRECTIONS", "Response", "quasi_static", "radau", "transient"]
 
@@ -220,10 +220,14 @@ def _curvature_shapes(length: float, points: int) -> NDArray:
     return N2
 
 
+def _problem(setup: Setup | Params, argument: str = "setup") -> tuple[LinkageDynamics, Scheme, Setup]:
+    """The dynamics, the scheme and the set-up of a problem (a Setup, or a Params)."""
+    s = as_setup(setup, argument)
+    return linkage_dynamics(s), s.scheme, s
+
+
 def _resolve(setup):
     """(dynamics, scheme, setup) of a problem (a Setup, or a Params)."""
-    from .steady import _problem
-
     return _problem(setup)
 
 

@@ -39,7 +39,6 @@ at 300 r/min one or two periods per S, none of them with a monodromy matrix.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -48,17 +47,16 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from ..cache import STORE
-from ..errors import FivebarError, InputError, array, flag, number
+from ..errors import FivebarError, array, number
 from ..model.dynamics import LinkageDynamics, linkage_dynamics
 from ..numerics.eigen import frozen_modes
 from ..numerics.newmark import NewtonConvergenceError, integrate
 from ..numerics.schemes import Scheme
 from ..description.params import Params
-from .response import Response
-from ..description.setup import Setup, analysis, as_setup, default_scheme, min_steps_per_period, scheme_name
+from .response import Response, _problem
+from ..description.setup import Setup, analysis, default_scheme, min_steps_per_period, scheme_name
 
-__all__ = ["DEFLECTION_LIMIT", "SteadyState", "SteadyStateError", "ValidityWarning", "march", "shooting",
-           "steady_state"]
+__all__ = ["DEFLECTION_LIMIT", "SteadyState", "SteadyStateError", "ValidityWarning", "march", "shooting"]
 
 #: bounds of the iteration limits: :func:`march` periods, :func:`shooting` Newton iterations
 MAX_PERIODS, MAX_SHOOTING_ITER = 100_000, 1000
@@ -107,7 +105,7 @@ class SteadyState(Response):
         energy norm.
     accuracy
         With ``steady_state(..., tol=...)``: the tolerance asked for, the S compared and the
-        estimated error of the midpoint deflections (see :func:`steady_state`); else None.
+        estimated error of the midpoint deflections (see :func:`~fivebar.analyses.branches.steady_state`); else None.
     scheme
         The time integrator used.
     setup
@@ -256,12 +254,6 @@ def _remedy(scheme: Scheme | None, S: int) -> str:
     return (f"with {_scheme_text(scheme)} at S = {S}: if a finer step (larger steps_per_period) does not "
             "change this, the instability is physical (for example the divergence of the lowest mode, "
             "errata E28)")
-
-
-def _problem(setup: Setup | Params, argument: str = "setup") -> tuple[LinkageDynamics, Scheme, Setup]:
-    """The dynamics, the scheme and the set-up of a problem (a Setup, or a Params)."""
-    s = as_setup(setup, argument)
-    return linkage_dynamics(s), s.scheme, s
 
 
 def _energy_norm(dyn: LinkageDynamics, u: NDArray, v: NDArray) -> NDArray:
@@ -644,79 +636,6 @@ class _OrbitMonodromy:
 
 #: first S of the doubling sequence of ``steady_state(..., tol=...)``, and the largest it tries
 _TOL_FIRST_STEPS, _TOL_MAX_STEPS = 50, 12800
-
-
-@analysis
-def steady_state(
-    setup: Setup | Params,
-    method: str = "shooting",
-    tol: float | None = None,
-    explain: bool = False,
-) -> SteadyState:
-    """The periodic steady state of the linkage over one period of the motion.
-
-    ``res = steady_state(params)`` or ``steady_state(setup.replace(crank_speed_rpm=300,
-    steps_per_period=1600))``;
-    ``res.midpoint_mm("L2", "transverse")`` (mm over the S + 1 samples from crank angle 0),
-    ``res.floquet_multipliers``, ``res.stable``, ``res.note``, ``res.bending_stress()`` (Pa).
-    ``steady_state(params, tol=0.01)`` chooses S itself for 1 % on the midpoint deflections
-    (fastest for a given accuracy, see ``tol``).
-
-    Parameters
-    ----------
-    setup
-        The problem: a :class:`fivebar.description.setup.Setup` (crank speed, S, motors, nonlinearity,
-        mesh, scheme; the paper's rule is ``Setup(params, scheme=fivebar.PAPER_SCHEME)``), or a
-        :class:`fivebar.description.params.Params` meaning ``Setup(params)`` (every setting from the
-        parameter file: S = ``steps_per_period``, the ``[simulation] scheme``).
-    method
-        "shooting" (damped Newton on periodicity, with Floquet multipliers) or "march" (period
-        by period from rest).
-    tol
-        Relative accuracy asked of the transverse midpoint deflections of L2 and L3 over the
-        period (Figure 6), for example 0.01; ``None`` (default) solves at the set-up's S.  With
-        ``tol`` the library chooses S (the set-up's S is not used): it solves at S = 50, 100, 200, ... (each from the previous
-        orbit, sampling no step time twice; after a first speed, each from the orbit of the
-        last speed of the same problem, scaled) until the deflection curves of two successive S
-        differ by at most ``tol`` of their peak-to-peak value at every sample, and returns the
-        finer one.  For the second-order schemes that change over-estimates the finer
-        solution's error in the asymptotic range (about three times).  ``res.accuracy`` holds
-        the S compared, the estimate and every step tried; ``res.note`` says what was chosen.
-    explain
-        Where the orbit is unstable (``res.stable`` False, ``res.note`` says so), also find
-        what the linkage does there: a march of 400 periods from the orbit, disturbed along
-        its most unstable Floquet direction, names a period-2 orbit, another period-1 orbit,
-        no periodic motion or a divergence (:func:`fivebar.analyses.branches.explain_steady`, the report of
-        :func:`fivebar.analyses.branches.describe_speed`, which with a followed branch also names the
-        nearest bifurcation).  The report is ``res.explained`` and ends ``res.note``.  Default False: an unstable orbit costs nothing
-        more (its note says how to ask).  Needs ``method="shooting"`` (the multipliers);
-        computes the multipliers of a nonlinear orbit (one period with the monodromy matrix).
-    """
-    if method not in ("shooting", "march"):
-        raise InputError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
-    explain = flag("explain", explain)
-    if explain and method != "shooting":
-        raise InputError(f"explain = True and method = {method!r} are not allowed together: explain needs the "
-                         "Floquet multipliers of shooting (method='shooting')")
-    if tol is not None:
-        tol = number("tol", tol, low=0.0, high=1.0, low_open=True, high_open=True)
-    s = as_setup(setup)
-    if tol is not None:
-        res = _to_tolerance(s, method, float(tol))
-    elif method == "shooting":
-        res = shooting(s)
-    else:
-        res = march(s)
-    if explain and res.stable is False:
-        from .branches import explain_steady  # (branches builds on this module)
-
-        res._cache["explained"] = explain_steady(res)
-    outside = res._outside()
-    if outside:
-        warnings.warn(f"the steady state at {s.crank_speed_rpm:g} r/min is outside the model's validity: "
-                      + "; ".join(outside) + " (SteadyState.validity has the checks)", ValidityWarning,
-                      stacklevel=3)  # (steady_state, its analysis wrapper, the caller)
-    return res
 
 
 #: the kind of key, in the library's store, of the last orbits of ``steady_state(..., tol=...)``

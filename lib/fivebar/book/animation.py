@@ -109,7 +109,7 @@ def linkage_frames(steady, scale: float | None = None, frames: int = 48, points:
     Parameters
     ----------
     steady : SteadyState
-        From :func:`fivebar.analyses.steady.steady_state`.
+        From :func:`fivebar.analyses.branches.steady_state`.
     scale
         Magnification of the elastic displacement; ``None`` chooses the 1-2-5 number that
         draws the largest displacement at about 8 % of the length of the first coupler (L2 of

@@ -85,11 +85,11 @@ def figure6_curves(params: Params) -> pd.DataFrame:
 
     Columns ``crank angle (deg)`` and ``<link> <direction> (um)`` for L2, L3 and the
     directions of :meth:`fivebar.analyses.response.Response.midpoint_mm` (transverse, longitudinal,
-    chord).  The steady state is :func:`fivebar.analyses.steady.steady_state` of
+    chord).  The steady state is :func:`fivebar.analyses.branches.steady_state` of
     ``Setup(params, steps_per_period=FIGURE6_STEPS)`` (the data set's fine step).
     """
     from ..description.setup import Setup
-    from ..analyses.steady import steady_state
+    from ..analyses.branches import steady_state
 
     res = steady_state(Setup(_params(params), steps_per_period=FIGURE6_STEPS))
     out = {"crank angle (deg)": res.crank_angle_deg}

@@ -1,6 +1,6 @@
 """One linkage set-up: parameters, crank speed, S, motors, nonlinearity, mesh and scheme.
 
-The problem object.  Every analysis of the linkage (:func:`fivebar.analyses.steady.steady_state`,
+The problem object.  Every analysis of the linkage (:func:`fivebar.analyses.branches.steady_state`,
 :func:`fivebar.analyses.sweep.speed_sweep`, the resonance tables, the multiple scales, the control
 simulation, the continuation) takes a :class:`Setup` or a :class:`~fivebar.description.params.Params`
 (meaning ``Setup(params)``; :func:`as_setup` turns it into one) and only options of its own: a

@@ -206,7 +206,7 @@ class LinkageDynamics:
         """The samples at S from those at 2 S (every other one) or at S / 2 (computing only the
         S / 2 new ones) when the cache holds them: the step times k T / S are the even ones
         of k T / (2 S), to the last bit (halving is exact), so halving or doubling S, as
-        :func:`fivebar.analyses.steady.steady_state` does to reach a tolerance, samples no time twice."""
+        :func:`fivebar.analyses.branches.steady_state` does to reach a tolerance, samples no time twice."""
         S = self.steps_per_period
         fine = STORE.lookup(key[:2] + (2 * S,) + key[3:], touch=False)
         if fine is not None:
