@@ -9,7 +9,6 @@ from scipy.signal import find_peaks
 import fivebar
 from fivebar.analyses.resonance import (
     ResonanceError,
-    campbell_diagram,
     classify,
     effective_frequencies,
     linkage_frequencies,
@@ -172,7 +171,7 @@ def test_resonance_speeds_solve_their_conditions(params):
 
 
 def test_campbell_diagram(params):
-    from fivebar.book.plotting import LABELS, MIN_FONT_PT
+    from fivebar.book.plotting import LABELS, MIN_FONT_PT, campbell_diagram
 
     ax = campbell_diagram(params, np.linspace(100, 3000, 50), n_modes=2)
     assert ax.get_xlabel() == LABELS["crank_speed"] and ax.get_ylabel() == LABELS["frequency"]

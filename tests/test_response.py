@@ -143,16 +143,17 @@ def test_every_result_in_time_is_read_alike():
     """Steady states and the multiple-scales approximation are Responses; the multibody result
     has the same accessor names."""
     assert issubclass(SteadyState, Response) and issubclass(MultipleScalesResponse, Response)
-    for name in ("t", "params", "crank_angle_deg", "deflection_mm", "midpoint_mm", "peak_to_peak_mm", "method",
-                 "plot"):
+    for name in ("t", "params", "crank_angle_deg", "deflection_mm", "midpoint_mm", "peak_to_peak_mm", "method"):
         assert hasattr(Response, name) or name in Response.__dataclass_fields__, name
         assert hasattr(MultibodySteadyState, name) or name in MultibodySteadyState.__dataclass_fields__, name
     assert fivebar.Response is Response and fivebar.transient is transient
 
 
 def test_plot_draws_the_midpoint_curves(dyn):
+    from fivebar.book.plotting import response_plot
+
     r = quasi_static(dyn.setup)
-    ax = r.plot()
+    ax = response_plot(r)
     lines = ax.get_lines()
     assert [ln.get_label() for ln in lines] == ["L2 (quasi-static)", "L3 (quasi-static)"]
     assert np.array_equal(lines[0].get_ydata(), 1e3 * r.midpoint_mm("L2"))

@@ -161,6 +161,7 @@ def test_analyses_take_a_setup_or_params_alike():
 def _analyses():
     """(name, function, the arguments after the problem) of every analysis of the linkage."""
     from fivebar.analyses import branches, figure6, linkage_multiscale as lm, modal, resonance, response, steady, sweep
+    from fivebar.book import plotting
     from fivebar.analyses.control.control_simulation import closed_loop_multipliers, simulate_cycle
 
     return [
@@ -172,7 +173,7 @@ def _analyses():
         ("initial_state", lm.initial_state, ()), ("compare_starts", lm.compare_starts, ([100.0],)),
         ("resonance_table", resonance.resonance_table, ()), ("resonance_speeds", resonance.resonance_speeds, ()),
         ("campbell_data", resonance.campbell_data, ([100.0, 200.0],)),
-        ("campbell_diagram", resonance.campbell_diagram, ([100.0, 200.0],)),
+        ("campbell_diagram", plotting.campbell_diagram, ([100.0, 200.0],)),
         ("linkage_frequencies", resonance.linkage_frequencies, ()),
         ("spin_softening", resonance.spin_softening, ()),
         ("effective_frequencies", resonance.effective_frequencies, ()),

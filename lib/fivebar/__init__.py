@@ -29,7 +29,7 @@ _FACADE = {
     "DEFAULT_PARAMS_PATH": "description.params", "FOURBAR_PARAMS_PATH": "description.params",
     "Motor": "description.params", "ParameterError": "description.params",
     "Params": "description.params", "load_params": "description.params",
-    "campbell_diagram": "analyses.resonance", "resonance_table": "analyses.resonance",
+    "campbell_diagram": "book.plotting", "resonance_table": "analyses.resonance",
     "Response": "analyses.response", "quasi_static": "analyses.response", "radau": "analyses.response",
     "transient": "analyses.response",
     "SteadyState": "analyses.steady", "SteadyStateError": "analyses.steady", "ValidityWarning": "analyses.steady",

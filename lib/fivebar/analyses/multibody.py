@@ -325,7 +325,7 @@ def damping_ratios(
 class MultibodySteadyState:
     """One steady period of the multibody model, read like :class:`fivebar.analyses.steady.SteadyState`
     (the same accessors: ``t``, ``params``, ``crank_angle_deg``, ``deflection_mm``,
-    ``midpoint_mm``, ``peak_to_peak_mm``, ``method``, ``plot``).
+    ``midpoint_mm``, ``peak_to_peak_mm``, ``method``).
 
     Attributes
     ----------
@@ -415,13 +415,6 @@ class MultibodySteadyState:
     def method(self) -> str:
         """What computed it: "multibody" (Exudyn), as the ``method`` of a :class:`fivebar.analyses.response.Response`."""
         return "multibody"
-
-    def plot(self, links=None, direction: str = "transverse", ax=None, **kwargs):
-        """Draw the midpoint displacements against the crank angle
-        (:func:`fivebar.book.plotting.response_plot`); returns the matplotlib Axes."""
-        from ..book.plotting import response_plot
-
-        return response_plot(self, links, direction, ax, **kwargs)
 
 
 def multibody_steady_state(

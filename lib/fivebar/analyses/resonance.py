@@ -41,7 +41,6 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -55,14 +54,10 @@ from ..model.excitation import excitation_frequencies
 from ..description.params import Params
 from ..description.setup import Setup, analysis, as_setup
 
-if TYPE_CHECKING:  # drawing lives in fivebar.book.plotting; only the wrapper's annotations name it
-    import matplotlib.pyplot as plt
-
 __all__ = [
     "ResonanceError",
     "CampbellData",
     "campbell_data",
-    "campbell_diagram",
     "classify",
     "effective_frequencies",
     "linkage_frequencies",
@@ -464,22 +459,3 @@ def campbell_data(
     m = params.fourier_terms if harmonics is None else int(harmonics)
     f = linkage_frequencies(s, n_modes) / (2 * np.pi)
     return CampbellData(x, f, f.min(0), f.mean(0), f.max(0), spin_softening(s, n_modes), m)
-
-
-@analysis
-def campbell_diagram(
-    setup: Setup | Params,
-    speeds_rpm: ArrayLike,
-    *,
-    n_modes: int = 3,
-    harmonics: int | None = None,
-    ax: plt.Axes | None = None,
-    mark: bool = True,
-    effective: bool = True,
-) -> plt.Axes:
-    """Campbell diagram in one call: :func:`campbell_data` drawn by
-    :func:`fivebar.book.plotting.campbell_plot` (see both).  Returns the matplotlib Axes."""
-    from ..book.plotting import campbell_plot
-
-    data = campbell_data(setup, speeds_rpm, n_modes=n_modes, harmonics=harmonics)
-    return campbell_plot(data, ax=ax, mark=mark, effective=effective)

@@ -5,7 +5,7 @@ times ``t``, the elastic displacements ``u`` and velocities ``v`` of the kept DO
 :class:`~fivebar.model.dynamics.LinkageDynamics` they belong to, and reads them as an engineer
 does: the displacement of a point of a link (:meth:`Response.deflection_mm`, the midpoint
 :meth:`Response.midpoint_mm` that Figure 6 shows), its peak-to-peak value, the peak bending
-stress of every link, a plot.  Every computation in time returns one, as python-control's
+stress of every link (:func:`fivebar.book.plotting.response_plot` draws it).  Every computation in time returns one, as python-control's
 ``TimeResponseData`` serves every simulation:
 
 * the periodic steady state (:func:`fivebar.analyses.steady.shooting`, :func:`fivebar.analyses.steady.march`,
@@ -201,13 +201,6 @@ class Response:
                 out[el.link] = max(out.get(el.link, 0.0), p.E * 0.5 * p.bending_depth * kappa)
             self._cache[key] = out
         return dict(self._cache[key])
-
-    def plot(self, links=None, direction: str = "transverse", ax=None, **kwargs):
-        """Draw the midpoint displacements against the crank angle
-        (:func:`fivebar.book.plotting.response_plot`); returns the matplotlib Axes."""
-        from ..book.plotting import response_plot
-
-        return response_plot(self, links, direction, ax, **kwargs)
 
 
 @memoised

@@ -85,7 +85,7 @@ ACCURACY_LIMIT = 0.01
 class SteadyState(Response):
     """One steady period of the linkage's elastic response: a :class:`fivebar.analyses.response.Response`
     (``t``, ``u``, ``v``, ``dynamics``, ``midpoint_mm``, ``deflection_mm``, ``peak_to_peak_mm``,
-    ``bending_stress``, ``plot``) with the data of the periodic orbit.
+    ``bending_stress``) with the data of the periodic orbit.
 
     Attributes
     ----------

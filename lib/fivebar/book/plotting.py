@@ -24,8 +24,10 @@ from numpy.typing import ArrayLike
 from ..errors import InputError
 from ..model.kinematics import positions
 from ..description.params import Params
+from ..description.setup import Setup, analysis
 
 __all__ = [
+    "campbell_diagram",
     "response_plot",
     "OKABE_ITO",
     "PALETTE",
@@ -435,11 +437,30 @@ def campbell_plot(data, ax=None, *, mark: bool = True, effective: bool = True, l
     return ax
 
 
+@analysis
+def campbell_diagram(
+    setup: Setup | Params,
+    speeds_rpm: ArrayLike,
+    *,
+    n_modes: int = 3,
+    harmonics: int | None = None,
+    ax: Axes | None = None,
+    mark: bool = True,
+    effective: bool = True,
+) -> Axes:
+    """Campbell diagram in one call: :func:`fivebar.analyses.resonance.campbell_data` drawn by
+    :func:`campbell_plot` (see both).  Returns the matplotlib Axes."""
+    from ..analyses.resonance import campbell_data
+
+    data = campbell_data(setup, speeds_rpm, n_modes=n_modes, harmonics=harmonics)
+    return campbell_plot(data, ax=ax, mark=mark, effective=effective)
+
+
 def response_plot(response, links=None, direction: str = "transverse", ax=None, **kwargs):
     r"""Draw the midpoint displacements of ``links`` of a response, in micrometres, against the
     crank angle.
 
-    ``response.plot()`` calls it.  ``response`` is anything with ``params``, ``method``,
+    ``response`` is anything with ``params``, ``method``,
     ``crank_angle_deg`` and ``midpoint_mm`` (a :class:`fivebar.analyses.response.Response`, a
     :class:`fivebar.analyses.steady.SteadyState`, a :class:`fivebar.analyses.multibody.MultibodySteadyState`);
     ``links`` default to the description's couplers (L2 and L3 of the five-bar, as Figure 6);
