@@ -358,10 +358,10 @@ def _library_citations(exclude: set[str]) -> dict[str, list[tuple[str, str]]]:
     import fivebar
 
     cites: dict[str, list[tuple[str, str]]] = {}
-    for info in sorted(pkgutil.iter_modules(fivebar.__path__), key=lambda i: i.name):
-        if info.name.startswith("_"):
+    for info in sorted(pkgutil.walk_packages(fivebar.__path__, "fivebar."), key=lambda i: i.name):
+        if info.name.rpartition(".")[2].startswith("_"):
             continue
-        modname = f"fivebar.{info.name}"
+        modname = info.name
         try:
             module = importlib.import_module(modname)
         except Exception as exc:  # a module that does not import is a bug: say so
@@ -427,7 +427,7 @@ class EquationIndex(SphinxDirective):
         lib = _library_citations(exclude)
         import fivebar
 
-        for p in Path(fivebar.__file__).parent.glob("*.py"):
+        for p in Path(fivebar.__file__).parent.rglob("*.py"):
             self.env.note_dependency(str(p))
 
         chapters: dict[str, list[str]] = {}
@@ -724,11 +724,11 @@ def _public_api() -> dict[str, set[str]]:
         import fivebar
 
         api: dict[str, set[str]] = {}
-        for info in pkgutil.iter_modules(fivebar.__path__):
-            if info.name.startswith("_"):
+        for info in pkgutil.walk_packages(fivebar.__path__, "fivebar."):
+            if info.name.rpartition(".")[2].startswith("_"):
                 continue
             try:
-                module = importlib.import_module(f"fivebar.{info.name}")
+                module = importlib.import_module(info.name)
             except Exception:
                 continue
             for name in getattr(module, "__all__", []):
