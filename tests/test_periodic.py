@@ -20,7 +20,7 @@ from fivebar.errors import FivebarError
 from fivebar.numerics.schemes import GeneralizedAlpha
 from fivebar.numerics.systems import System
 from fivebar.numerics.periodic import (PeriodicProblem, ShootingError, floquet_multipliers, iterate_map,
-                              monodromy, newmark_map, shoot)
+                                       monodromy, newmark_map, shoot)
 
 W0, ZETA, F0, OMEGA = 1.3, 0.05, 0.7, 1.1  # natural frequency, damping ratio, force, forcing frequency
 
