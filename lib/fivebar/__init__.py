@@ -5,8 +5,12 @@ A library and a Jupyter Book reproducing and extending R.-G. Wang, G.-W. Cai and
 controllable close-chain linkage mechanism system*, Mathematical Problems in Engineering
 2011, 254547.  Equation numbers in docstrings are the paper's.
 
-The facade below is what the chapters use; the modules hold the rest.  Units at the API: SI,
-or the unit in the name (``crank_speed_rpm``, ``SteadyState.midpoint_mm``, ``crank_angle_deg``).
+The facade below is what the chapters use; the modules hold the rest, in subpackages by layer,
+each importing only the layers below it: ``numerics`` (generic solvers), ``description`` (the
+parameters, the linkage, a set-up), ``model`` (the linkage's equations), ``analyses`` and
+``book`` (what the chapters use to show results); ``errors`` and ``cache`` at the root.  Units at
+the API: SI, or the unit in the name (``crank_speed_rpm``, ``SteadyState.midpoint_mm``,
+``crank_angle_deg``).
 """
 
 # The facade is lazy (PEP 562): ``import fivebar`` loads no heavy module (scipy submodules,
