@@ -7,7 +7,7 @@ Prints one JSON object (and writes it with ``--out``).  Sections:
                    step) and nonlinear (full Newton), Newmark (average acceleration) and
                    GeneralizedAlpha(0.8); "compiled" is ``integrate`` as every caller gets it,
                    "python" the same call with the compiled kernels switched off
-                   (``fivebar.newmark._USE_KERNELS = False``), the peer in the same process.
+                   (``fivebar.numerics.newmark._USE_KERNELS = False``), the peer in the same process.
   steady_state_ms  one whole ``steady_state(Setup(params, crank_speed_rpm=..., nonlinear=...))`` call
                    (model construction included) at 60, 300 and 600 r/min, compiled and python.
   import_s         ``import fivebar`` in a fresh interpreter (a subprocess; warm file cache).
@@ -38,7 +38,7 @@ import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
-from fivebar.setup import Setup  # noqa: E402
+from fivebar.description.setup import Setup  # noqa: E402
 
 
 def _median_time(fn, repeats: int) -> float:
@@ -51,7 +51,7 @@ def _median_time(fn, repeats: int) -> float:
 
 
 def _set_kernels(on: bool) -> bool:
-    import fivebar.newmark as nm
+    import fivebar.numerics.newmark as nm
     if not hasattr(nm, "_USE_KERNELS"):  # a version without compiled kernels
         return on is False
     nm._USE_KERNELS = on
@@ -60,10 +60,10 @@ def _set_kernels(on: bool) -> bool:
 
 def step_costs(repeats: int) -> dict:
     from fivebar import load_params
-    from fivebar.dynamics import LinkageDynamics
-    from fivebar.newmark import integrate
-    from fivebar.schemes import GeneralizedAlpha, Newmark
-    from fivebar.steady import shooting
+    from fivebar.model.dynamics import LinkageDynamics
+    from fivebar.numerics.newmark import integrate
+    from fivebar.numerics.schemes import GeneralizedAlpha, Newmark
+    from fivebar.analyses.steady import shooting
 
     p = load_params()
     out: dict = {}
@@ -94,7 +94,7 @@ def step_costs(repeats: int) -> dict:
 
 def steady_costs(repeats: int) -> dict:
     from fivebar import load_params, steady_state
-    from fivebar.schemes import GeneralizedAlpha
+    from fivebar.numerics.schemes import GeneralizedAlpha
 
     p = load_params()
     out: dict = {}
@@ -134,9 +134,9 @@ def import_time(repeats: int, statement: str = "import fivebar") -> dict:
 _FIRST_CALL = r"""
 import time, json
 from fivebar import load_params
-from fivebar.dynamics import LinkageDynamics
-from fivebar.newmark import integrate
-from fivebar.schemes import GeneralizedAlpha
+from fivebar.model.dynamics import LinkageDynamics
+from fivebar.numerics.newmark import integrate
+from fivebar.numerics.schemes import GeneralizedAlpha
 import numpy as np
 dyn = LinkageDynamics(load_params())
 u0 = np.zeros(dyn.n)
@@ -151,7 +151,7 @@ print(json.dumps({"first": first, "warm": warm}))
 
 def numba_compile() -> dict:
     try:
-        import fivebar._kernels  # noqa: F401
+        import fivebar.numerics._kernels  # noqa: F401
     except ImportError:
         return {"note": "no compiled kernels in this version"}
     with tempfile.TemporaryDirectory() as d:

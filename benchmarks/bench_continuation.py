@@ -1,7 +1,7 @@
 """Continuation of the linkage's periodic steady state over crank speed (issue 18, point 5).
 
 The flexible orientation (``bending_depth = 0.002``: the 2 mm side in the plane of motion),
-motors off, the parameter file's S and scheme otherwise; ``fivebar.branches.follow`` from 10 to
+motors off, the parameter file's S and scheme otherwise; ``fivebar.analyses.branches.follow`` from 10 to
 300 r/min with a budget of 200 points, for the linear and the nonlinear model.  Prints one
 JSON object (and writes it with ``--out``):
 
@@ -51,7 +51,7 @@ def run(model: str, steps: int | None, points: int) -> dict:
     import numpy as np
 
     import fivebar
-    from fivebar.branches import describe_speed, follow
+    from fivebar.analyses.branches import describe_speed, follow
 
     p = fivebar.load_params().replace(bending_depth=0.002)
     s = fivebar.Setup(p, crank_speed_rpm=10, motors=False, nonlinear=(model == "nonlinear"),
@@ -63,7 +63,7 @@ def run(model: str, steps: int | None, points: int) -> dict:
     dp = np.abs(np.diff(b.p))
     out = {
         "S": s.steps_per_period,
-        "scheme": fivebar.setup.scheme_name(s.scheme),
+        "scheme": fivebar.description.setup.scheme_name(s.scheme),
         "points": len(b.points),
         "p_reached": round(float(b.p[-1]), 4),
         "stop": b.stop,
@@ -106,7 +106,7 @@ def main() -> None:
            "load": {"start": list(os.getloadavg())}}
     import fivebar  # noqa: F401  (the import and the numba cache load are not timed)
     from fivebar import steady_state
-    from fivebar.branches import LinkagePeriodMap
+    from fivebar.analyses.branches import LinkagePeriodMap
     steady_state(fivebar.Setup(fivebar.load_params(), motors=False))  # warm the compiled kernels
     threads = [int(t) for t in a.threads.split(",")]
     for model in a.models.split(","):

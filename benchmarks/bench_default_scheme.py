@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 import fivebar
-from fivebar.setup import Setup
+from fivebar.description.setup import Setup
 
 
 def main() -> None:

@@ -51,11 +51,12 @@ import scipy.integrate
 from threadpoolctl import threadpool_limits
 
 from fivebar import Setup, load_params
-from fivebar.setup import scheme_name
-from fivebar.dynamics import LinkageDynamics
-from fivebar.newmark import integrate
-from fivebar.schemes import GeneralizedAlpha, Newmark
-from fivebar.steady import SteadyState, march, shooting, steady_state
+from fivebar.description.setup import scheme_name
+from fivebar.model.dynamics import LinkageDynamics
+from fivebar.numerics.newmark import integrate
+from fivebar.numerics.schemes import GeneralizedAlpha, Newmark
+from fivebar.analyses.branches import steady_state
+from fivebar.analyses.steady import SteadyState, march, shooting
 
 LINKS = ("L2", "L3")
 #: the default of steady_state(params): the parameter file's scheme and S

@@ -1,4 +1,4 @@
-"""Time per step of the generic Newmark integrator (lib/fivebar/newmark.py); prints JSON.
+"""Time per step of the generic Newmark integrator (lib/fivebar/numerics/newmark.py); prints JSON.
 
 Cases (n = 100 DOFs by default, random SPD mass and stiffness, Rayleigh damping):
   lti            time-invariant linear: one factorisation, one triangular solve per step
@@ -41,9 +41,9 @@ def main() -> None:
 
     import numpy as np
 
-    from fivebar.newmark import integrate
-    from fivebar.schemes import Newmark
-    from fivebar.systems import PeriodicStepData, System
+    from fivebar.numerics.newmark import integrate
+    from fivebar.numerics.schemes import Newmark
+    from fivebar.numerics.systems import PeriodicStepData, System
 
     n, S, P, R = args.n, args.steps_per_period, args.periods, max(args.repeats, 5)
     rng = np.random.default_rng(0)

@@ -49,7 +49,8 @@ import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
-from fivebar.setup import Setup  # noqa: E402
+from fivebar.description.setup import Setup  # noqa: E402
+from fivebar.model.dynamics import linkage_dynamics  # noqa: E402
 
 
 def _t(fn, repeats=1):
@@ -88,13 +89,13 @@ def _curve_error(res, ref):
 
 def step_costs(repeats):
     from fivebar import Setup, load_params
-    from fivebar.newmark import integrate
-    from fivebar.steady import shooting
+    from fivebar.numerics.newmark import integrate
+    from fivebar.analyses.steady import shooting
 
     out = {}
     for nl in (False, True):
         s = Setup(load_params(), motors=False, nonlinear=nl)
-        dyn = s.dynamics()
+        dyn = linkage_dynamics(s)
         orb = shooting(s)
 
         def run():
@@ -170,7 +171,7 @@ def exudyn_cost(quick, repeats):
     try:
         import numpy as np
         from fivebar import load_params, steady_state
-        from fivebar.multibody import MultibodyError, multibody_steady_state
+        from fivebar.analyses.multibody import MultibodyError, multibody_steady_state
         import exudyn  # noqa: F401
     except ImportError as exc:
         return {"note": f"not measured: {exc}"}
@@ -231,7 +232,7 @@ def sweep_cost(n):
     import numpy as np
     from concurrent.futures import ProcessPoolExecutor
     from fivebar import load_params
-    from fivebar.sweep import speed_sweep
+    from fivebar.analyses.sweep import speed_sweep
 
     p = load_params()
     t = time.perf_counter()

@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/bench_teaching.py
 
-Reports, per CSV of fivebar.datasets, the seconds to compute and write it and its size; per
+Reports, per CSV of fivebar.book.datasets, the seconds to compute and write it and its size; per
 animation, the seconds to compute and render it, its frame count and the size of its page.
 These are the times a cold `make book` adds (the CSVs at builder-inited, the animations in the
 chapters that call them); an unchanged rebuild adds nothing (hash cache, execution cache).
@@ -21,8 +21,8 @@ import matplotlib
 matplotlib.use("Agg")
 
 import fivebar  # noqa: E402
-from fivebar import animation, datasets  # noqa: E402
-from fivebar.setup import Setup  # noqa: E402
+from fivebar.book import animation, datasets  # noqa: E402
+from fivebar.description.setup import Setup  # noqa: E402
 
 
 def main() -> dict:

@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 
 import fivebar
-from fivebar import multibody
-from fivebar.setup import Setup
+from fivebar.analyses import multibody
+from fivebar.description.setup import Setup
 
 OUT = Path(__file__).resolve().parents[1] / "data" / "multibody_sweep.json"
 SPEEDS = {0.030: [60, 300, 600, 1000, 1440], 0.002: [15, 30, 45, 60, 90, 120]}

@@ -3,7 +3,7 @@
 Flexible orientation (bending_depth = 2 mm), motors off: transverse peak-to-peak midpoint
 deflections of L2 and L3 (mm) over crank speed of
   * the KED steady state (shooting, generalised-alpha rho_inf = 0.8) linear, and nonlinear with
-    each strain measure of fivebar.nonlinear.STRAIN_MEASURES ("literal" is the model before the
+    each strain measure of fivebar.model.nonlinear.STRAIN_MEASURES ("literal" is the model before the
     fix), with the library's modal damping and with the stiffness-proportional (Kelvin-Voigt)
     damping of the multibody model (matched damping), on the mesh 2-4-4-2 at S = 800;
   * the convergence of the matched comparison: the KED model (uniform strain, stiffness damping)
@@ -25,9 +25,9 @@ import time
 from pathlib import Path
 
 import fivebar
-from fivebar import multibody
-from fivebar.nonlinear import STRAIN_MEASURES
-from fivebar.setup import Setup
+from fivebar.analyses import multibody
+from fivebar.model.nonlinear import STRAIN_MEASURES
+from fivebar.description.setup import Setup
 
 OUT = Path(__file__).resolve().parent / "results" / "nonlinear_vs_multibody.json"
 SPEEDS = [30, 60, 90, 120, 200, 300]

@@ -29,11 +29,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "lib"))
 
 import fivebar as fb  # noqa: E402
-from fivebar import datasets  # noqa: E402
-from fivebar.newmark import integrate  # noqa: E402
-from fivebar.systems import PeriodicStepData, System  # noqa: E402
-from fivebar.steady import march, shooting  # noqa: E402
-from fivebar.sweep import speed_sweep, sweep_point  # noqa: E402
+from fivebar.book import datasets  # noqa: E402
+from fivebar.model.dynamics import linkage_dynamics  # noqa: E402
+from fivebar.numerics.newmark import integrate  # noqa: E402
+from fivebar.numerics.systems import PeriodicStepData, System  # noqa: E402
+from fivebar.analyses.steady import march, shooting  # noqa: E402
+from fivebar.analyses.sweep import speed_sweep, sweep_point  # noqa: E402
 
 P = fb.load_params()
 #: a cheap set-up for the solvers' bad-input cases (linear, no motors, S = 100)
@@ -153,7 +154,7 @@ CASES = [
     bad("shooting(max_iter=2.5)", lambda: shooting(L, max_iter=2.5), "max_iter", "2.5"),
     bad("shooting(max_iter=10**9)", lambda: shooting(L, max_iter=10**9), "max_iter", "1000000000"),
     bad("shooting(u0 of wrong size)", lambda: shooting(L, u0=np.zeros(3), v0=np.zeros(3)), "u0", "3"),
-    bad("shooting(u0 with nan)", lambda: shooting(L, u0=np.full(L.dynamics().n, NAN)), "u0", "finite"),
+    bad("shooting(u0 with nan)", lambda: shooting(L, u0=np.full(linkage_dynamics(L).n, NAN)), "u0", "finite"),
     bad("shooting(dyn=5)", lambda: shooting(5), "5", "int"),
     bad("march(max_periods=0)", lambda: march(L, max_periods=0), "max_periods", "0"),
     bad("march(max_periods=-3)", lambda: march(L, max_periods=-3), "max_periods", "-3"),
@@ -163,7 +164,7 @@ CASES = [
     bad("march(tol=-1)", lambda: march(L, tol=-1), "tol", "-1"),
     bad("march(tol='1e-6')", lambda: march(L, tol="1e-6"), "tol", "'1e-6'"),
     bad("march(u0 of wrong size)", lambda: march(L, u0=np.zeros(3)), "u0", "3"),
-    bad("march(v0 with inf)", lambda: march(L, v0=np.full(L.dynamics().n, INF)), "v0", "finite"),
+    bad("march(v0 with inf)", lambda: march(L, v0=np.full(linkage_dynamics(L).n, INF)), "v0", "finite"),
     good("march(max_periods=np.int64(2000))", lambda: march(L, max_periods=np.int64(2000))),
     good("shooting(max_iter=np.int32(20))", lambda: shooting(L, max_iter=np.int32(20))),
     # --- the result type in time: transient / quasi_static / radau / Response --------------

@@ -1,4 +1,4 @@
-"""Animations (fivebar.animation): the frames show the computed motion; the page is offline."""
+"""Animations (fivebar.book.animation): the frames show the computed motion; the page is offline."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import fivebar
-from fivebar import animation
-from fivebar.kinematics import crank_laws
+from fivebar.book import animation
+from fivebar.model.kinematics import crank_laws
 
 
 @pytest.fixture(scope="module")
@@ -102,7 +102,7 @@ def test_a_four_bar_is_drawn_from_its_own_description():
     description (they read the five-bar's L1..L5 and two cranks before): for the four-bar the
     rigid frames put the joints where the loop closure does, and the elastic part of the
     coupler's midpoint is the steady state's deflection there times the scale."""
-    from fivebar.kinematics import positions
+    from fivebar.model.kinematics import positions
 
     four = fivebar.load_params([fivebar.DEFAULT_PARAMS_PATH, fivebar.FOURBAR_PARAMS_PATH])
     st = fivebar.steady_state(fivebar.Setup(four, crank_speed_rpm=600, steps_per_period=200, motors=False))

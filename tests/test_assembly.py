@@ -5,11 +5,11 @@ import pytest
 import scipy.linalg
 
 from fivebar import load_params
-from fivebar.assembly import build_model, paper_b_matrices
-from fivebar.elements import gauss_points, shape_functions
-from fivebar.kinematics import rigid_state
-from fivebar.modal import natural_frequencies
-from fivebar.setup import Setup
+from fivebar.model.assembly import build_model, paper_b_matrices
+from fivebar.model.elements import gauss_points, shape_functions
+from fivebar.model.kinematics import rigid_state
+from fivebar.analyses.modal import natural_frequencies
+from fivebar.description.setup import Setup
 
 P = load_params()
 ANGLES = [(0.0, 0.0), (1.1, -2.0), (2.5, 0.7), (-0.8, 3.0)]
@@ -156,8 +156,8 @@ def test_frozen_frequencies_converge_under_refinement(motors):
 
 
 def test_mean_frequencies_and_averaged_matrix_modes():
-    from fivebar.kinematics import crank_laws
-    from fivebar.modal import averaged_matrix_modes, frequencies_along_cycle, mean_frequencies
+    from fivebar.model.kinematics import crank_laws
+    from fivebar.analyses.modal import averaged_matrix_modes, frequencies_along_cycle, mean_frequencies
 
     fm = mean_frequencies(Setup(P, steps_per_period=24), n_modes=4)
     f = frequencies_along_cycle(P, np.arange(24) * np.pi / 12, n_modes=4)

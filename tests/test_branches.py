@@ -1,4 +1,4 @@
-"""The linkage's periodic steady state followed in a parameter (fivebar.branches).
+"""The linkage's periodic steady state followed in a parameter (fivebar.analyses.branches).
 
 Checked against the library's two other routes to the same orbit, which share with the
 continuation only the time integrator: ``steady_state`` (shooting from the quasi-static start,
@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 import fivebar
-from fivebar.branches import brute_force_diagram, describe_speed, follow, linkage_period_map
+from fivebar.analyses.branches import brute_force_diagram, describe_speed, follow, linkage_period_map
 from fivebar.errors import FivebarError
-from fivebar.steady import steady_state
-from fivebar.setup import Setup
+from fivebar.analyses.branches import steady_state
+from fivebar.description.setup import Setup
+from fivebar.model.dynamics import linkage_dynamics
 
 
 @pytest.fixture(scope="module")
@@ -134,7 +135,7 @@ def test_period_map_dynamics_at_a_new_speed_equal_a_fresh_build():
     assert len(STORE.keys("setup.dynamics")) == 1  # the steady state's at 40 r/min, not the map's
     fivebar.clear_cache()
     s97 = Setup(p.replace(crank_speed_rpm=61.0), steps_per_period=200, motors=False)
-    fresh = s97.dynamics()
+    fresh = linkage_dynamics(s97)
     g = linkage_period_map(s97)
     assert g.dynamics(61.0)[1] is fresh  # the stored one, when there is one
     assert d.params == fresh.params and (d.period, d.dt, d.n) == (fresh.period, fresh.dt, fresh.n)
@@ -154,7 +155,7 @@ def test_period_map_dynamics_at_a_new_speed_equal_a_fresh_build():
         with pytest.raises(FivebarError, match=f"crank_speed_rpm = {bad!r} is not allowed"):
             f.dynamics(bad)
     with pytest.raises(FivebarError, match="keep = 'no'"):
-        s.dynamics(keep="no")
+        linkage_dynamics(s, keep="no")
 
 
 def test_the_linkage_map_at_two_speeds_in_two_threads_equals_it_in_one():

@@ -217,8 +217,9 @@ def test_generated_pages_are_complete(book):
 
 def test_every_library_module_is_in_the_api_reference():
     api = (ROOT / "book" / "api.md").read_text(encoding="utf-8")
-    documented = set(re.findall(r"automodule::\s*(fivebar\.\w+)", api))
-    modules = {f"fivebar.{p.stem}" for p in (ROOT / "lib" / "fivebar").glob("*.py")
+    documented = set(re.findall(r"automodule::\s*(fivebar\.[\w.]+)", api))
+    lib = ROOT / "lib"
+    modules = {".".join(p.relative_to(lib).with_suffix("").parts) for p in (lib / "fivebar").rglob("*.py")
                if not p.stem.startswith("_")}
     missing = sorted(modules - documented)
     assert not missing, f"add these modules to book/api.md (an automodule section each): {missing}"
@@ -690,7 +691,7 @@ def test_every_figure_is_numbered_captioned_and_described(book):
 
 def _table_problems(page: Path, chapter: int) -> list[str]:
     """Every table of a chapter's text must carry a caption numbered "Table <chapter>.k" (a MyST
-    ``{table}``, as ``fivebar.reporting.table(..., name=)`` writes it; a pandas Styler or a bare
+    ``{table}``, as ``fivebar.book.reporting.table(..., name=)`` writes it; a pandas Styler or a bare
     DataFrame has none) that says what is tabulated; the text must not point at "the table
     above/below"; one string per problem."""
     from bs4 import BeautifulSoup
@@ -704,7 +705,7 @@ def _table_problems(page: Path, chapter: int) -> list[str]:
         caption = tab.find("caption")
         number = caption.find(class_="caption-number") if caption else None
         if number is None:
-            problems.append(f"{where}: no numbered caption (use fivebar.reporting.table(..., name=))")
+            problems.append(f"{where}: no numbered caption (use fivebar.book.reporting.table(..., name=))")
             continue
         m = re.fullmatch(r"Table (\d+)\.(\d+)", number.get_text(" ", strip=True))
         if not m or int(m.group(1)) != chapter:

@@ -1,9 +1,9 @@
-"""The chapters' parameter loading and their two kinds of checks (fivebar.chapter)."""
+"""The chapters' parameter loading and their two kinds of checks (fivebar.book.chapter)."""
 
 import pytest
 
 import fivebar
-from fivebar import chapter
+from fivebar.book import chapter
 
 
 def test_load_layers_the_readers_file_over_the_books(tmp_path):

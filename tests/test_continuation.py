@@ -1,4 +1,4 @@
-"""Continuation of periodic orbits (fivebar.continuation) against independent references.
+"""Continuation of periodic orbits (fivebar.numerics.continuation) against independent references.
 
 * Forced Duffing oscillator x'' + 2 zeta x' + x + alpha x^3 = F cos(w t), continued in w:
   the two folds of its frequency response against a reference that shares nothing with the
@@ -7,7 +7,7 @@
   det(Phi - I) = 0, three equations in x(0), x'(0), w).  The remaining difference is the
   trapezoidal rule's period error, w dt^2 / 12 relative (checked).  For small forcing the
   upper fold (the peak) lies on the first-order multiple-scales backbone
-  w = 1 + 3 alpha a^2 / 8 (fivebar.response_curves.backbone).
+  w = 1 + 3 alpha a^2 / 8 (fivebar.numerics.response_curves.backbone).
 * Parametrically excited damped Duffing x'' + 2 zeta x' + (a - 2 q cos 2t) x + alpha x^3 = 0,
   continued in a on its trivial orbit: the period doublings are the boundaries of the damped
   first instability tongue (reference: DOP853 monodromy of the linear equation and a root of
@@ -24,13 +24,13 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, root
 
-from fivebar.continuation import ContinuationError, continuation, settle, switch_period_doubling
+from fivebar.numerics.continuation import ContinuationError, continuation, settle, switch_period_doubling
 from fivebar.errors import FivebarError
-from fivebar.newmark import NewtonConvergenceError
-from fivebar.modal_equations import ModalSystem
-from fivebar.response_curves import backbone
-from fivebar.systems import System
-from fivebar.periodic import PeriodicProblem, iterate_map, newmark_map, shoot
+from fivebar.numerics.newmark import NewtonConvergenceError
+from fivebar.numerics.modal_equations import ModalSystem
+from fivebar.numerics.response_curves import backbone
+from fivebar.numerics.systems import System
+from fivebar.numerics.periodic import PeriodicProblem, iterate_map, newmark_map, shoot
 
 
 def _duffing(zeta, alpha, F, S):
@@ -188,7 +188,7 @@ def test_bad_input():
 
 
 def _fake_fold():
-    from fivebar.continuation import Bifurcation
+    from fivebar.numerics.continuation import Bifurcation
     return Bifurcation("fold", 1.0, np.zeros(2), np.zeros(2, complex), 0, (1.0, 1.0), 0.0)
 
 
@@ -240,7 +240,7 @@ def test_a_locating_trial_that_fails_is_followed_by_others_inside_the_bracket(mo
     Jacobian asked while locating), the next trials go to the middle and the quarters of the
     bracket instead of ending the location: both folds of the Duffing loop are still located to
     the bracket of the plain run (chapter 13's rerun with l2_damping.toml lost one so)."""
-    import fivebar.continuation as cont
+    import fivebar.numerics.continuation as cont
 
     zeta, alpha, F, S = 0.05, 1.0, 0.1, 100
     f = _duffing(zeta, alpha, F, S)
@@ -444,7 +444,7 @@ def test_the_difference_in_p_beside_the_monodromy_changes_no_number(monkeypatch)
     # a perturbed state, or that is not run beside, fails the equality or the thread check)
     import threading
 
-    import fivebar.continuation as cont
+    import fivebar.numerics.continuation as cont
 
     monkeypatch.setattr(cont, "_cores", lambda: 2)  # as on a machine of two cores or more
     base = _duffing(0.05, 1.0, 0.1, 60)
@@ -478,7 +478,7 @@ def test_beside_raises_the_first_error_and_waits_for_both():
     import threading
     import time
 
-    from fivebar.continuation import _beside
+    from fivebar.numerics.continuation import _beside
 
     done = []
 

@@ -2,7 +2,7 @@
 
 References used here are independent of the control modules (free_rotors, control_model,
 control_design, control_simulation): the rigid Lagrange dynamics of
-fivebar.rigid, the prescribed-motion model (fivebar.modal, fivebar.dynamics, fivebar.steady),
+fivebar.model.rigid, the prescribed-motion model (fivebar.analyses.modal, fivebar.model.dynamics, fivebar.analyses.steady),
 Newmark time integration of the full-order matrices, and closed forms.
 """
 
@@ -11,16 +11,16 @@ import pytest
 from crank_laws import general_laws as _general_laws
 
 from fivebar import FivebarError, load_params, natural_frequencies
-from fivebar.control_design import Servo, damping_lqr, pd_servo, schedule
-from fivebar.control_model import control_modal_model, linear_model, models_along_cycle
-from fivebar.control_simulation import CycleSimulation, closed_loop_multipliers, simulate_cycle
-from fivebar.free_rotors import DEFAULT_OUTPUTS, FlexibleLinkage, elastic_frequencies, feedforward, rigid_inertia
-from fivebar.elements import motor_element
-from fivebar.kinematics import crank_laws
-from fivebar.newmark import integrate
-from fivebar.systems import System
-from fivebar.rigid import inertia_model, inverse_dynamics, mass_matrix
-from fivebar.setup import Setup
+from fivebar.analyses.control.control_design import damping_lqr, pd_servo, schedule
+from fivebar.analyses.control.control_model import Servo, control_modal_model, linear_model, models_along_cycle
+from fivebar.analyses.control.control_simulation import CycleSimulation, closed_loop_multipliers, simulate_cycle
+from fivebar.model.free_rotors import DEFAULT_OUTPUTS, FlexibleLinkage, elastic_frequencies, feedforward, rigid_inertia
+from fivebar.model.elements import motor_element
+from fivebar.model.kinematics import crank_laws
+from fivebar.numerics.newmark import integrate
+from fivebar.numerics.systems import System
+from fivebar.model.rigid import inertia_model, inverse_dynamics, mass_matrix
+from fivebar.description.setup import Setup
 
 P = load_params()
 FL = FlexibleLinkage(P)
@@ -44,12 +44,12 @@ def test_exactly_two_rigid_modes(th):
 
 @pytest.mark.parametrize("th", CONFIGS)
 def test_rigid_mass_is_the_lagrange_mass(th):
-    """Phi_r^T M_p Phi_r equals the rigid 2-DOF mass matrix of fivebar.rigid (a second method:
+    """Phi_r^T M_p Phi_r equals the rigid 2-DOF mass matrix of fivebar.model.rigid (a second method:
     bodies and Lagrange's equations) with the shaft and the flat bars' rotary inertia added."""
     mm = control_modal_model(P, *th, linkage=FL)
     M_rig = mass_matrix(P, *th, inertia=rigid_inertia(P))
     assert np.allclose(mm.M_rigid, M_rig, rtol=1e-12, atol=1e-14)
-    # without the rotary-inertia term of (A.8) the rigid inertia is fivebar.rigid's own, with shafts
+    # without the rotary-inertia term of (A.8) the rigid inertia is fivebar.model.rigid's own, with shafts
     q = P.replace(rotary_inertia=0)
     mq = control_modal_model(q, *th)
     assert np.allclose(mq.M_rigid, mass_matrix(q, *th, inertia=inertia_model(q, shaft_inertia=True)), rtol=1e-12)
@@ -70,8 +70,8 @@ def test_clamped_rotors_give_the_prescribed_motion_frequencies(th):
 
 def test_clamped_rotors_recover_the_prescribed_motion_equation():
     """Removing the rotor angles leaves exactly the linkage subsystem of (2.7):
-    same M, K and inertial load -M u_r'' as fivebar.dynamics.LinkageDynamics."""
-    from fivebar.dynamics import LinkageDynamics
+    same M, K and inertial load -M u_r'' as fivebar.model.dynamics.LinkageDynamics."""
+    from fivebar.model.dynamics import LinkageDynamics
 
     dyn = LinkageDynamics(Setup(P, steps_per_period=24, nonlinear=False))
     labels = [dyn.model.dofs[i].label for i in dyn.keep]
@@ -88,7 +88,7 @@ def test_clamped_rotors_recover_the_prescribed_motion_equation():
 
 
 def test_feedforward_is_the_rigid_inverse_dynamics_and_the_fe_load():
-    """tau_ff = fivebar.rigid.inverse_dynamics along the crank laws, and it equals the flexible
+    """tau_ff = fivebar.model.rigid.inverse_dynamics along the crank laws, and it equals the flexible
     model's inertial load projected on its rigid modes, Phi_r^T M_p a_r, for general crank
     laws (non-constant speeds): the FE mass and the rigid bodies are two methods."""
     t = np.linspace(0.0, P.period, 9)
@@ -242,9 +242,9 @@ def test_schedule_interpolates_periodically():
 
 def test_reference_from_the_prescribed_steady_state():
     """The ideal-servo elastic motion mapped into the free-rotor coordinates gives back the
-    steady state's own midpoint deflection (fivebar.steady.SteadyState.midpoint)."""
-    from fivebar.control_simulation import _reference
-    from fivebar.steady import steady_state
+    steady state's own midpoint deflection (fivebar.analyses.steady.SteadyState.midpoint)."""
+    from fivebar.analyses.control.control_simulation import _reference
+    from fivebar.analyses.branches import steady_state
 
     S = 40
     ref = steady_state(Setup(P, steps_per_period=S, nonlinear=False))
@@ -260,7 +260,7 @@ def test_simulation_steady_state_and_reference():
     """Along the nominal motion at the default speed the PD servo keeps the rotors within
     0.1 mrad and the deflection within 1 % of the ideal servo's; a damping loop acting on the
     deviation from the servo's own steady motion leaves that steady motion unchanged."""
-    from fivebar.steady import steady_state
+    from fivebar.analyses.branches import steady_state
 
     S = 400
     servo = pd_servo(P, 5.5)
@@ -302,14 +302,14 @@ def test_closed_loop_multipliers_are_the_decay_of_the_march(bandwidth):
                    "modes p = Phi_r(t) eta its M_p(t) p'' adds 2 Phi_r^T M Phi_r' eta' + Phi_r^T M Phi_r'' eta, of "
                    "order Omega^2 J, which a servo with a bandwidth below the crank frequency does not dominate")
 def test_slow_servo_rigid_stability_matches_the_lagrange_dynamics():
-    """A second method for the rigid part: the nonlinear rigid Lagrange dynamics (fivebar.rigid)
+    """A second method for the rigid part: the nonlinear rigid Lagrange dynamics (fivebar.model.rigid)
     under the same feedforward and PD servo, marched by scipy; a perturbation of the crank
     angle decays by about 0.2 per period at 120 r/min with a 0.78 Hz servo.  The linear
     time-varying model of simulate_cycle gives a multiplier near 6 there (the known limit of
     the model, said in chapter 10), so this test fails and is marked as expected to fail."""
     from scipy.integrate import solve_ivp
 
-    from fivebar.rigid import forward_dynamics
+    from fivebar.model.rigid import forward_dynamics
 
     q = P.replace(crank_speed_rpm=120.0)
     servo = pd_servo(q, 0.78)

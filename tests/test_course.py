@@ -15,7 +15,7 @@ sys.path.insert(0, str(ROOT / "book" / "_ext"))
 
 import fivebar_teaching as teaching  # noqa: E402
 
-from fivebar.datasets import DATASETS  # noqa: E402
+from fivebar.book.datasets import DATASETS  # noqa: E402
 
 
 def toc_files() -> list[str]:
@@ -113,7 +113,7 @@ def test_built_course_map_and_downloads():
 # --- the directives in a small Sphinx build (in-process; the CSVs are stubbed) -----------------
 
 def _mini_book(tmp_path: Path, monkeypatch, with_anim: bool) -> tuple[Path, Path]:
-    import fivebar.datasets
+    import fivebar.book.datasets
 
     src = tmp_path / "src"
     (src / "book").mkdir(parents=True)
@@ -136,7 +136,7 @@ def _mini_book(tmp_path: Path, monkeypatch, with_anim: bool) -> tuple[Path, Path
             (outdir / f"{name}.csv").write_text("# fivebar stub\na\n1\n")
         return {name: 0.0 for name in DATASETS}
 
-    monkeypatch.setattr(fivebar.datasets, "write_datasets", fake_write)
+    monkeypatch.setattr(fivebar.book.datasets, "write_datasets", fake_write)
     if with_anim:
         (src / "book" / "_generated" / "anim").mkdir(parents=True)
         (src / "book" / "_generated" / "anim" / "09_linkage.html").write_text("<html>stub</html>")

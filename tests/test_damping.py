@@ -7,9 +7,9 @@ import pytest
 import scipy.linalg as sl
 
 from fivebar import load_params
-from fivebar.dynamics import LinkageDynamics
-from fivebar.kinematics import link_angles
-from fivebar.setup import Setup
+from fivebar.model.dynamics import LinkageDynamics
+from fivebar.model.kinematics import link_angles
+from fivebar.description.setup import Setup
 
 
 @pytest.mark.parametrize("depth", [0.002, 0.030])

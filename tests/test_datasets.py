@@ -1,4 +1,4 @@
-"""The CSV downloads (fivebar.datasets): contents against the library, provenance, cache."""
+"""The CSV downloads (fivebar.book.datasets): contents against the library, provenance, cache."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 import fivebar
-from fivebar import datasets
-from fivebar.kinematics import crank_laws
-from fivebar.resonance import linkage_frequencies
-from fivebar.sweep import sweep_point
-from fivebar.setup import Setup
+from fivebar.book import datasets
+from fivebar.model.kinematics import crank_laws
+from fivebar.analyses.resonance import linkage_frequencies
+from fivebar.analyses.sweep import sweep_point
+from fivebar.description.setup import Setup
 
 ROOT = Path(__file__).resolve().parents[1]
 CHEAP = ["figure6_curves", "natural_frequencies", "resonance_speeds"]
@@ -98,6 +98,18 @@ def test_cache_skips_unchanged_and_recomputes_changed_parameters(written, tmp_pa
     assert datasets.write_datasets(copy, params_path=p, names=["resonance_speeds"]) == {"resonance_speeds": 0.0}
     # the file written with the changed parameters is stale for the original ones
     assert datasets.write_datasets(copy, names=["resonance_speeds"])["resonance_speeds"] > 0
+
+
+def test_the_source_hash_reads_every_module_of_every_subpackage():
+    """The files hashed are the modules the import system finds in the package (pkgutil)."""
+    import pkgutil
+
+    modules = {m.name for m in pkgutil.walk_packages(fivebar.__path__, "fivebar.")}
+    root = Path(fivebar.__file__).parent
+    hashed = {".".join(("fivebar",) + p.relative_to(root).with_suffix("").parts).removesuffix(".__init__")
+              for p in datasets._library_sources()}
+    assert hashed == modules | {"fivebar"}
+    assert {"fivebar.numerics.newmark", "fivebar.model.dynamics", "fivebar.analyses.control.control_model"} <= hashed
 
 
 def test_bad_names_and_files_are_refused(tmp_path):

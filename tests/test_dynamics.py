@@ -9,10 +9,11 @@ import fivebar
 from fivebar import clear_cache, load_params
 from fivebar.cache import STORE
 from fivebar.errors import InputError
-from fivebar.dynamics import LinkageDynamics, modal_damping
-from fivebar.schemes import GeneralizedAlpha, Newmark
-from fivebar.steady import SteadyStateError, march, shooting, steady_state
-from fivebar.setup import Setup
+from fivebar.model.dynamics import LinkageDynamics, linkage_dynamics, modal_damping
+from fivebar.numerics.schemes import GeneralizedAlpha, Newmark
+from fivebar.analyses.branches import steady_state
+from fivebar.analyses.steady import SteadyStateError, march, shooting
+from fivebar.description.setup import Setup
 
 P = load_params()
 
@@ -111,7 +112,7 @@ def test_nonlinear_force_at_step_times_equals_the_direct_evaluation():
     """f_nl(u, t) looks the configuration up at the S step times (and at their images in later
     periods) and computes it elsewhere; both agree with NonlinearForce on the full model at the
     crank angles of t."""
-    from fivebar.nonlinear import NonlinearForce
+    from fivebar.model.nonlinear import NonlinearForce
 
     d = LinkageDynamics(Setup(P, steps_per_period=40))
     full = NonlinearForce(d.model)
@@ -247,7 +248,7 @@ def test_floquet_multipliers_equal_those_of_the_finite_difference_monodromy(nonl
     """The shooting orbit's multipliers (chord Newton; the monodromy matrix propagated along the
     2 n consistent directions; for the nonlinear model computed at the orbit on request) against
     the eigenvalues of the period map's Jacobian by central differences."""
-    from fivebar.steady import _energy_norm, _period
+    from fivebar.analyses.steady import _energy_norm, _period
 
     d = LinkageDynamics(Setup(P, crank_speed_rpm=300, steps_per_period=100, motors=False, nonlinear=nonlinear))
     scheme = GeneralizedAlpha(0.8)
@@ -304,7 +305,7 @@ def test_a_new_speed_warm_started_from_the_last_meets_the_tolerance_and_the_cold
     below tol (the inner tolerance), be periodic, and (the point of the warm start; at 300
     r/min) cost less than the cold start: fewer periods with a monodromy matrix (which cost
     about two without), and fewer in all counting those as two."""
-    import fivebar.steady as st
+    import fivebar.analyses.steady as st
 
     s = Setup(P, motors=False, nonlinear=True)
     clear_cache()
@@ -360,12 +361,12 @@ def test_a_stale_monodromy_matrix_still_reaches_the_orbit(nonlinear):
     none at all: zeros, Picard's iteration) must still reach the orbit of Newton's method
     (it takes the orbit's own matrix when the stale one falls short), and report the orbit's
     own Floquet multipliers, not the given matrix's."""
-    import fivebar.steady as st
+    import fivebar.analyses.steady as st
 
     s = Setup(P, motors=False, nonlinear=nonlinear, steps_per_period=100, scheme=GeneralizedAlpha(0.8))
     newton = shooting(s.replace(crank_speed_rpm=600))
     far = shooting(s.replace(crank_speed_rpm=660))
-    d = s.replace(crank_speed_rpm=600).dynamics()
+    d = linkage_dynamics(s.replace(crank_speed_rpm=600))
     for Phi in (far._cache["monodromy"], np.zeros((2 * d.n, 2 * d.n))):
         res = st._shooting(d.setup, far.u[0], far.v[0], 1e-10, 20, monodromy=Phi)
         for link in ("L2", "L3"):
@@ -386,7 +387,7 @@ def test_newton_picard_shooting_reaches_the_newton_orbit(nonlinear, monkeypatch)
     """Above 32 DOFs shooting takes Newton's step on the lowest frozen modes only (Picard's
     iteration on the rest) and modified Newton within the steps: on the (2,4,4,2) mesh its
     orbit must equal the one of Newton's method with the whole monodromy matrix."""
-    import fivebar.steady as st
+    import fivebar.analyses.steady as st
 
     s = Setup(P, crank_speed_rpm=600, steps_per_period=100, motors=False, nonlinear=nonlinear,
               elements_per_link=(2, 4, 4, 2), scheme=GeneralizedAlpha(0.8))

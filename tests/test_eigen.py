@@ -1,4 +1,4 @@
-"""The one eigensolver of frozen modes (fivebar.eigen.frozen_modes), against scipy's direct
+"""The one eigensolver of frozen modes (fivebar.numerics.eigen.frozen_modes), against scipy's direct
 form on well-conditioned pairs, batched against one by one, and the modal damping it builds
 against its definition C phi_r = 2 zeta omega_r M phi_r."""
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from fivebar.dynamics import modal_damping
-from fivebar.eigen import frozen_modes
+from fivebar.model.dynamics import modal_damping
+from fivebar.numerics.eigen import frozen_modes
 from fivebar.errors import FivebarError
 
 rng = np.random.default_rng(7)

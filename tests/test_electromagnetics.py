@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import fivebar
-from fivebar import electromagnetics as em
+from fivebar.model import electromagnetics as em
 
 PARAMS = fivebar.load_params()
 MU0 = 4e-7 * math.pi

@@ -17,7 +17,7 @@ from numpy.polynomial import Polynomial
 from scipy.optimize import brentq
 
 from fivebar import load_params
-from fivebar.elements import (
+from fivebar.model.elements import (
     AXIAL_DOFS,
     TRANSVERSE_DOFS,
     assemble_line,

@@ -1,4 +1,4 @@
-"""Tests of fivebar.excitation: the Fourier expansion (2.10), the frequencies nu_f, the modal basis."""
+"""Tests of fivebar.model.excitation: the Fourier expansion (2.10), the frequencies nu_f, the modal basis."""
 
 import math
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import fivebar
-from fivebar.dynamics import LinkageDynamics
-from fivebar.excitation import (
+from fivebar.model.dynamics import LinkageDynamics
+from fivebar.model.excitation import (
     ExcitationError,
     ModalBasis,
     excitation_frequencies,
@@ -16,7 +16,7 @@ from fivebar.excitation import (
     modal_basis,
     modal_expansion,
 )
-from fivebar.setup import Setup
+from fivebar.description.setup import Setup
 
 
 @pytest.fixture(scope="module")

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from fivebar import load_params
-from fivebar.figure6 import ASSUMPTION_VARIANTS, Variant, assumption_effects, speed_table
-from fivebar.setup import Setup
+from fivebar.analyses.figure6 import ASSUMPTION_VARIANTS, Variant, assumption_effects, speed_table
+from fivebar.description.setup import Setup
 
 P = load_params()
 
@@ -37,7 +37,7 @@ def test_speed_scaling_and_torques():
 
 
 def test_assumptions_table_reports_the_effect_of_every_assumption():
-    from fivebar.reporting import assumptions_table
+    from fivebar.book.reporting import assumptions_table
 
     df = assumptions_table(effects=True).set_index("key")
     assert df["effect on Figure 6"].str.len().min() > 0
@@ -79,7 +79,7 @@ def test_a_change_below_what_the_steady_states_resolve_is_zero(monkeypatch):
     only) changed the deflections by -1.7e-11 % on CI's machine, in a process where another speed
     had sampled the set-up first, and by exactly 0 here: the table, its text in the assumptions
     table and chapter 09's check must not depend on that history."""
-    from fivebar import figure6
+    from fivebar.analyses import figure6
 
     factors = iter([1.0, 1 - 1.7e-13, 1 + 9e-14, 1.01, 1 - 4.2e-7])
 

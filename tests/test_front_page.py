@@ -101,7 +101,7 @@ class StoredTable:
 
 def _myst_tables(markdown: str) -> list[dict]:
     """The pipe tables of the numbered MyST tables (``{table}`` directives, as
-    ``fivebar.reporting.table(..., name=...)`` writes them) in a Markdown output."""
+    ``fivebar.book.reporting.table(..., name=...)`` writes them) in a Markdown output."""
     tables = []
     for block in re.findall(r"```\{table\}.*?\n(.*?)```", markdown, re.S):
         rows = [line.strip() for line in block.splitlines() if line.strip().startswith("|")]

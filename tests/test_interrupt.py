@@ -3,7 +3,7 @@ or the dataset writer, stop the workers at once, keep the finished points and le
 
 Each case runs the sweep in a subprocess of its own session (its process group holds the
 workers).  The script reports each finished point on stdout (by wrapping
-``concurrent.futures.as_completed`` as ``fivebar.sweep`` sees it); after two the test sends the
+``concurrent.futures.as_completed`` as ``fivebar.analyses.sweep`` sees it); after two the test sends the
 signal and then checks: the process ends (within a generous time limit that only catches
 "runs the remaining speeds to the end": the measured time is printed), the finished points are
 kept (returned in ``SweepInterrupted.results``, or written to ``speed_sweep.partial.csv`` with
@@ -28,7 +28,7 @@ LIB = str(Path(__file__).resolve().parents[1] / "lib")
 PRELUDE = textwrap.dedent("""
     import json, sys, time
     sys.path.insert(0, sys.argv[1])
-    import fivebar, fivebar.sweep as sw
+    import fivebar, fivebar.analyses.sweep as sw
     _real = sw.cf.as_completed
     def _reporting(fs, *a, **k):
         for f in _real(fs, *a, **k):
@@ -68,7 +68,7 @@ SWEEP = PRELUDE + textwrap.dedent("""
 """)
 
 WRITER = PRELUDE + textwrap.dedent("""
-    from fivebar import datasets
+    from fivebar.book import datasets
     datasets.write_datasets(sys.argv[2], names=["speed_sweep"])
 """)
 
@@ -132,7 +132,7 @@ def test_a_signal_while_a_point_is_kept_waits_until_it_is_in_the_rows_and_the_st
     in the store, counted once.  (Planted: without the hold the signal raises inside the put,
     and the row is kept with no entry.)"""
     import fivebar
-    import fivebar.sweep as sw
+    import fivebar.analyses.sweep as sw
     from fivebar.cache import STORE
 
     params = fivebar.load_params()
@@ -159,7 +159,7 @@ def test_a_signal_while_a_point_is_kept_waits_until_it_is_in_the_rows_and_the_st
 
 
 def test_sigterm_stops_the_dataset_writer_and_keeps_its_rows(tmp_path):
-    from fivebar import datasets
+    from fivebar.book import datasets
 
     proc, lines, elapsed, done, _ = _run_and_signal(WRITER, [str(tmp_path)], signal.SIGTERM)
     assert proc.returncode != 0
@@ -174,7 +174,7 @@ def test_sigterm_stops_the_dataset_writer_and_keeps_its_rows(tmp_path):
 def test_the_dataset_cache_checks_length_and_checksum(tmp_path):
     """A written file cut short, or altered, is not fresh: it is computed again, and reading it
     says it is damaged."""
-    from fivebar import datasets
+    from fivebar.book import datasets
 
     assert datasets.write_datasets(tmp_path, names=["resonance_speeds"])["resonance_speeds"] > 0
     path = tmp_path / "resonance_speeds.csv"

@@ -1,4 +1,4 @@
-"""The compile cache heals (fivebar._jitcache): damaged files are discarded and rebuilt with one
+"""The compile cache heals (fivebar.numerics._jitcache): damaged files are discarded and rebuilt with one
 warning, a read-only cache is read as it is, a temporary cache is removed at exit.
 
 Every case runs in a subprocess on a cache of its own (a small module of two compiled
@@ -40,8 +40,8 @@ RUN = textwrap.dedent("""
     sys.path[:0] = [sys.argv[1], sys.argv[2]]
     warnings.simplefilter("always")
     with warnings.catch_warnings(record=True) as w:
-        from fivebar._jitcache import import_cached
-        import fivebar._jitcache as jc
+        from fivebar.numerics._jitcache import import_cached
+        import fivebar.numerics._jitcache as jc
         m = import_cached("tiny")
         value = m.f(1.5)
     s = m.f.stats
@@ -157,9 +157,9 @@ KERNELS = textwrap.dedent("""
     import numpy as np
     sys.path.insert(0, sys.argv[1])
     warnings.simplefilter("always")
-    from fivebar.newmark import integrate
-    from fivebar.systems import System
-    import fivebar.newmark as nm
+    from fivebar.numerics.newmark import integrate
+    from fivebar.numerics.systems import System
+    import fivebar.numerics.newmark as nm
     # u'' + u = 0 from u = 1: u(t) = cos t (average acceleration: the phase error is O(dt^2))
     with warnings.catch_warnings(record=True) as w:
         r = integrate(System(np.eye(1), np.zeros((1, 1)), np.eye(1)), [1.0], [0.0], 0.0, 0.01,
@@ -174,7 +174,7 @@ def test_the_kernels_heal_a_truncated_cache(tmp_path):
     test's own, a copy of the worktree's cache where one exists."""
     from numba.core import caching
 
-    kern = Path(LIB) / "fivebar" / "_kernels.py"
+    kern = Path(LIB) / "fivebar" / "numerics" / "_kernels.py"
     own = tmp_path / "numba"
     target = own / caching._CacheLocator.get_suitable_cache_subpath(str(kern))
     real = glob.glob(str(kern.parent / "__pycache__" / "_kernels.*.nb[ic]"))
@@ -208,7 +208,7 @@ TINY_SIGNED = TINY + textwrap.dedent("""
 TWO_THREADS = textwrap.dedent("""
     import sys, threading
     sys.path[:0] = [sys.argv[1], sys.argv[2]]
-    from fivebar._jitcache import import_cached
+    from fivebar.numerics._jitcache import import_cached
     go, out = threading.Barrier(4), []
     def first_use():
         go.wait()

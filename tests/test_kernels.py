@@ -1,7 +1,7 @@
-"""The compiled time loop (fivebar._kernels) and the model's compiled force against independent
+"""The compiled time loop (fivebar.numerics._kernels) and the model's compiled force against independent
 references.
 
-References: the vectorised numpy nonlinear force (fivebar.nonlinear), finite differences of the
+References: the vectorised numpy nonlinear force (fivebar.model.nonlinear), finite differences of the
 compiled force and of the compiled one-period map, numpy's LAPACK solve, the closed-form discrete
 solution of the average-acceleration rule for a free oscillator, and the Python time loop (the
 same algorithm written with numpy/LAPACK calls, validated against Radau and closed forms in
@@ -15,16 +15,16 @@ import math
 import numpy as np
 import pytest
 
-import fivebar.newmark as nm
+import fivebar.numerics.newmark as nm
 from fivebar import load_params
-from fivebar import _kernels as kern
-from fivebar.dynamics import LinkageDynamics
-from fivebar.nonlinear import STRAIN_MEASURES, NonlinearForce
-from fivebar.steady import shooting
-from fivebar.newmark import NewtonConvergenceError, integrate
-from fivebar.schemes import HHT, GeneralizedAlpha, Newmark
-from fivebar.setup import Setup
-from fivebar.systems import PeriodicStepData, System
+from fivebar.numerics import _kernels as kern
+from fivebar.model.dynamics import LinkageDynamics
+from fivebar.model.nonlinear import STRAIN_MEASURES, NonlinearForce
+from fivebar.analyses.steady import shooting
+from fivebar.numerics.newmark import NewtonConvergenceError, integrate
+from fivebar.numerics.schemes import HHT, GeneralizedAlpha, Newmark
+from fivebar.description.setup import Setup
+from fivebar.numerics.systems import PeriodicStepData, System
 
 
 @pytest.fixture(scope="module")
@@ -210,11 +210,11 @@ def test_kernels_load_without_a_writable_cache_location():
     import subprocess
     import sys
 
-    code = ("import warnings, fivebar.newmark as nm\n"
+    code = ("import warnings, fivebar.numerics.newmark as nm\n"
             "with warnings.catch_warnings(record=True) as w:\n"
             "    warnings.simplefilter('always')\n"
             "    k = nm._kernels()\n"
-            "import fivebar._jitcache as jc\n"
+            "import fivebar.numerics._jitcache as jc\n"
             "assert k is not None and k.march is not None\n"
             "assert any('NUMBA_CACHE_DIR' in str(x.message) for x in w), [str(x.message) for x in w]\n"
             "print(k.march.stats.cache_path)\n")
@@ -367,26 +367,27 @@ def test_a_fresh_process_loads_the_compiled_loop_from_the_cache(tmp_path):
 
     from numba.core import caching
 
-    lib = Path(nm.__file__).parent
+    lib = Path(nm.__file__).parents[1]
     own = tmp_path / "numba"
-    for name in ("_kernels", "_nonlinear_kernel"):  # a copy of the worktree's cache, if any
-        target = own / caching._CacheLocator.get_suitable_cache_subpath(str(lib / f"{name}.py"))
+    for name in ("numerics/_kernels", "model/_nonlinear_kernel"):  # a copy of the worktree's cache, if any
+        folder, name = (lib / name).parent, (lib / name).name
+        target = own / caching._CacheLocator.get_suitable_cache_subpath(str(folder / f"{name}.py"))
         target.mkdir(parents=True, exist_ok=True)
-        for f in glob.glob(str(lib / "__pycache__" / f"{name}.*.nb[ic]")):
+        for f in glob.glob(str(folder / "__pycache__" / f"{name}.*.nb[ic]")):
             shutil.copy(f, target)
     code = ("import json, numpy as np\n"
-            "import fivebar.newmark as nm\n"
-            "from fivebar.systems import System\n"
+            "import fivebar.numerics.newmark as nm\n"
+            "from fivebar.numerics.systems import System\n"
             "from fivebar import Setup, load_params\n"
-            "from fivebar.dynamics import LinkageDynamics\n"
-            "from fivebar._jitcache import import_cached\n"
+            "from fivebar.model.dynamics import LinkageDynamics\n"
+            "from fivebar.numerics._jitcache import import_cached\n"
             "for nonlinear in (False, True):\n"
             "    d = LinkageDynamics(Setup(load_params(), steps_per_period=100, nonlinear=nonlinear))\n"
             "    nm.integrate(d, np.zeros(d.n), np.zeros(d.n), 0.0, d.dt, 3, step_data=d.step_data,\n"
             "                 sensitivity=True)\n"
             "cubic = System(np.eye(2), np.eye(2), np.eye(2), nonlinear=lambda u: (u**3, np.diag(3 * u**2)))\n"
             "nm.integrate(cubic, [0.1, 0.0], [0.0, 0.0], 0.0, 0.1, 3)  # the Python loop\n"
-            "k, f = nm._kernels(), import_cached('fivebar._nonlinear_kernel')\n"
+            "k, f = nm._kernels(), import_cached('fivebar.model._nonlinear_kernel')\n"
             "out = {}\n"
             "for name, disp in [('march', k.march), ('predict', k.predict), ('force', f.force)]:\n"
             "    s = disp.stats\n"

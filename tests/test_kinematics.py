@@ -5,7 +5,7 @@ import pytest
 from crank_laws import general_laws as _general_laws
 
 from fivebar import load_params
-from fivebar.kinematics import (
+from fivebar.model.kinematics import (
     GeometryError,
     LINKS,
     constant_speed_laws,

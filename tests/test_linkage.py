@@ -10,11 +10,12 @@ from crank_laws import general_laws
 
 import fivebar
 from fivebar import load_params
-from fivebar.assembly import build_model
-from fivebar.kinematics import DeadPointError, GeometryError, constant_speed_laws, positions, rigid_state
-from fivebar.linkage import Drive, LinkageError
-from fivebar.modal import frequencies_along_cycle
-from fivebar.setup import Setup
+from fivebar.model.assembly import build_model
+from fivebar.model.kinematics import DeadPointError, GeometryError, constant_speed_laws, positions, rigid_state
+from fivebar.description.linkage import Drive, LinkageError
+from fivebar.analyses.modal import frequencies_along_cycle
+from fivebar.description.setup import Setup
+from fivebar.model.dynamics import linkage_dynamics
 
 FIVE = load_params()
 FOUR = load_params([fivebar.DEFAULT_PARAMS_PATH, fivebar.FOURBAR_PARAMS_PATH])
@@ -211,7 +212,7 @@ def test_four_bar_frozen_frequencies_converge_from_above_under_refinement():
 # --- the four-bar against the independent multibody model (Exudyn) ---------------------------
 def test_four_bar_frozen_frequencies_against_the_multibody_model():
     pytest.importorskip("exudyn")
-    from fivebar import multibody
+    from fivebar.analyses import multibody
 
     same = FOUR.replace(rotary_inertia=0)  # ANCF cables carry no rotary inertia
     for theta in (0.0, 2.0, 4.5):
@@ -225,7 +226,7 @@ def test_four_bar_steady_response_against_the_multibody_model():
     multibody model give the same midpoint curves of the coupler and the rocker to 1 % of their
     peak-to-peak values (measured: 0.1 %)."""
     pytest.importorskip("exudyn")
-    from fivebar import multibody
+    from fivebar.analyses import multibody
 
     mb = multibody.multibody_steady_state(FOUR, 600, steps_per_period=400, samples=100)
     ked = fivebar.steady_state(Setup(FOUR, crank_speed_rpm=600, steps_per_period=400, elements_per_link=(2, 4, 4)))
@@ -240,8 +241,8 @@ def test_five_bar_only_analyses_refuse_the_four_bar_by_name():
     """The free-rotor control model and the nu1..nu8 table are of two motor-driven cranks:
     a four-bar (one crank, no motor) gets an error that says so, not a silent second crank."""
     from fivebar.errors import FivebarError
-    from fivebar.excitation import excitation_frequencies
-    from fivebar.free_rotors import FlexibleLinkage, elastic_frequencies, rigid_inertia
+    from fivebar.model.excitation import excitation_frequencies
+    from fivebar.model.free_rotors import FlexibleLinkage, elastic_frequencies, rigid_inertia
 
     for call in (lambda: FlexibleLinkage(FOUR), lambda: elastic_frequencies(FOUR, [0.0]),
                  lambda: excitation_frequencies(FOUR)):
@@ -256,7 +257,7 @@ def test_four_bar_brute_force_and_speed_report_use_its_own_links():
     they read L2 and two crank angles before): the brute-force Poincaré sample of a long march
     at 600 r/min is the shot orbit's coupler midpoint at crank angle 0 (a second method: no
     Newton on periodicity), and a report of the speed names a stable orbit."""
-    from fivebar.branches import brute_force_diagram, describe_speed
+    from fivebar.analyses.branches import brute_force_diagram, describe_speed
     from fivebar.errors import InputError
 
     s = Setup(FOUR, crank_speed_rpm=600, steps_per_period=200, motors=False)
@@ -274,7 +275,7 @@ def test_four_bar_nonlinear_force_between_the_step_times():
     """Off the step times the nonlinear force is computed from the crank angles (one crank for
     the four-bar; two were unpacked before): it joins the sampled values at the step times
     continuously, its change from a step time first order in the time offset."""
-    dyn = Setup(FOUR, crank_speed_rpm=600, steps_per_period=40, motors=False).dynamics()
+    dyn = linkage_dynamics(Setup(FOUR, crank_speed_rpm=600, steps_per_period=40, motors=False))
     rng = np.random.default_rng(3)
     u = 1e-3 * rng.standard_normal(dyn.n)
     f0, K0 = dyn.nonlinear(u, 5 * dyn.dt)  # a step time: the sampled configuration

@@ -20,13 +20,17 @@ from pathlib import Path
 import fivebar
 
 LIB = Path(fivebar.__file__).parent
-MODULES = sorted(p.stem for p in LIB.glob("*.py") if p.stem != "__init__")
+#: Every module of the package below ``fivebar`` as a dotted name ("numerics.newmark"), the
+#: subpackages' own ``__init__`` as the subpackage ("numerics").
+MODULES = sorted(".".join(p.relative_to(LIB).with_suffix("").parts).removesuffix(".__init__")
+                 for p in LIB.rglob("*.py") if p != LIB / "__init__.py")
 
 #: The model (parameters, description, kinematics, rigid and elastic model, the equation of
 #: motion, modes, excitation, the response) and the control model's free-rotor linkage: the code
 #: that must work from any description.
-MODEL = ("params", "linkage", "setup", "kinematics", "rigid", "elements", "electromagnetics", "assembly",
-         "nonlinear", "dynamics", "modal", "excitation", "response", "free_rotors")
+MODEL = ("description.params", "description.linkage", "description.setup", "model.kinematics", "model.rigid",
+         "model.elements", "model.electromagnetics", "model.assembly", "model.nonlinear", "model.dynamics",
+         "analyses.modal", "model.excitation", "analyses.response", "model.free_rotors")
 #: A name of the paper's five-bar in code: a link L1..L5 or a motor section motor1, motor2.
 FIVE_BAR = re.compile(r"\b(L[1-5]|motor[12])\b")
 
@@ -51,17 +55,27 @@ def test_every_module_imports_alone():
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
 
 
+def _path(name: str) -> Path:
+    """The file of the module ``name`` (dotted, below ``fivebar``)."""
+    p = LIB.joinpath(*name.split("."))
+    return p / "__init__.py" if p.is_dir() else p.with_suffix(".py")
+
+
 def _module_imports(name: str) -> set[str]:
     """The package's modules that ``name`` imports at module level (not inside functions)."""
-    tree = ast.parse((LIB / f"{name}.py").read_text())
+    path = _path(name)
+    tree = ast.parse(path.read_text())
+    package = ["fivebar", *name.split(".")[:None if path.name == "__init__.py" else -1]]
     out: set[str] = set()
     for node in tree.body:
         nodes = [node]
         if isinstance(node, ast.Try):  # optional imports
             nodes = node.body + [h for x in node.handlers for h in x.body]
         for n in nodes:
-            if isinstance(n, ast.ImportFrom) and n.level == 1:
-                out |= {n.module.split(".")[0]} if n.module else {a.name for a in n.names}
+            if isinstance(n, ast.ImportFrom) and n.level:
+                base = package[:len(package) - (n.level - 1)][1:]
+                target = ".".join(base + ([n.module] if n.module else []))
+                out |= {target} if n.module else {".".join(base + [a.name]) for a in n.names}
     return out & set(MODULES)
 
 
@@ -89,7 +103,7 @@ def _cycle(graph: dict[str, set[str]]) -> list[str] | None:
 
 def test_module_level_imports_form_no_cycle():
     graph = {m: _module_imports(m) for m in MODULES}
-    assert graph["newmark"] >= {"schemes", "systems"}  # the integrator uses the two halves it was split from
+    assert graph["numerics.newmark"] >= {"numerics.schemes", "numerics.systems"}  # the integrator uses the two halves it was split from
     assert _cycle(graph) is None, " -> ".join(_cycle(graph))
     assert _cycle({"a": {"b"}, "b": {"a"}}) == ["a", "b", "a"]  # the check finds a planted cycle
 
@@ -116,7 +130,7 @@ def _code_names(source: str) -> list[tuple[int, str]]:
 
 
 def test_the_model_names_no_part_of_the_five_bar():
-    found = {m: _code_names((LIB / f"{m}.py").read_text()) for m in MODEL}
+    found = {m: _code_names(_path(m).read_text()) for m in MODEL}
     assert not any(found.values()), {m: h for m, h in found.items() if h}
     # the data file names them (the description says which links and motors there are)
     assert "motor1" in (LIB / "data" / "wang2011.toml").read_text()

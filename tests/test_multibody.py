@@ -12,8 +12,8 @@ import pytest
 pytest.importorskip("exudyn", reason="the multibody model needs exudyn (pinned in requirements-lock.txt)")
 
 import fivebar  # noqa: E402
-from fivebar import multibody  # noqa: E402
-from fivebar.setup import Setup  # noqa: E402
+from fivebar.analyses import multibody  # noqa: E402
+from fivebar.description.setup import Setup  # noqa: E402
 
 MESH = (2, 4, 4, 2)
 

@@ -9,11 +9,11 @@ from scipy.optimize import brentq
 from scipy.special import ellipk
 
 from fivebar.errors import FivebarError
-from fivebar.modal_equations import Harmonic, ModalSystem, MultiscaleError, Parametric
-from fivebar.multiscale import first_approximation, modulation_equations, particular_amplitudes
-from fivebar.newmark import NewtonConvergenceError
-from fivebar.newton import newton
-from fivebar.response_curves import (
+from fivebar.numerics.modal_equations import Harmonic, ModalSystem, MultiscaleError, Parametric
+from fivebar.numerics.multiscale import first_approximation, modulation_equations, particular_amplitudes
+from fivebar.numerics.newmark import NewtonConvergenceError
+from fivebar.numerics.newton import newton
+from fivebar.numerics.response_curves import (
     backbone,
     frequency_response,
     parametric_response,
@@ -311,8 +311,8 @@ def test_primary_resonance_against_numerical_steady_state():
 
 def test_primary_resonance_against_newmark():
     """The same steady state by the project's Newmark integrator (shooting with its monodromy)."""
-    from fivebar.newmark import integrate
-    from fivebar.systems import System
+    from fivebar.numerics.newmark import integrate
+    from fivebar.numerics.systems import System
 
     eps, w, mu, al, k, sig, S = 0.1, 1.0, 0.25, 1.0, 1.0, 1.0, 500
     Om = w + eps * sig
@@ -498,7 +498,7 @@ def test_incommensurate_resonances_have_no_steady_state():
         (lambda: particular_amplitudes(ModalSystem([2.0]), [Harmonic(2.0, [1.0])]), r"equals omega_0 exactly"),
         (lambda: modulation_equations(ModalSystem([1.0]), [Harmonic(3.0, [1.0])], soft=[(0, 4)]), r"index 4"),
         (lambda: modulation_equations(ModalSystem([1.0]), detuning=-0.1), r"detuning = -0.1"),
-        (lambda: modulation_equations([1.0]), r"system is a list: it must be a fivebar.modal_equations.ModalSystem"),
+        (lambda: modulation_equations([1.0]), r"system is a list: it must be a fivebar.numerics.modal_equations.ModalSystem"),
         (lambda: frequency_response(ModalSystem([1.0]), 0, 0.1, [0.0, -2.0]), r"sigmas\[1\] = -2 rad/s is not allowed"),
         (lambda: first_approximation(ModalSystem([1.0]), [0.0], guess=[1, 2]), r"guess has shape \(2,\), expected \(1,\)"),
     ],

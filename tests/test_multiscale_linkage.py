@@ -1,12 +1,12 @@
-"""Tests of the model-facing multiple scales (fivebar.linkage_multiscale: modal_model, multiple_scales, ...)."""
+"""Tests of the model-facing multiple scales (fivebar.analyses.linkage_multiscale: modal_model, multiple_scales, ...)."""
 
 import numpy as np
 import pytest
 
 import fivebar
-from fivebar.dynamics import LinkageDynamics
-from fivebar.excitation import modal_basis
-from fivebar.linkage_multiscale import (
+from fivebar.model.dynamics import LinkageDynamics
+from fivebar.model.excitation import modal_basis
+from fivebar.analyses.linkage_multiscale import (
     MultipleScalesResponse,
     compare_starts,
     initial_state,
@@ -15,11 +15,11 @@ from fivebar.linkage_multiscale import (
     multiple_scales,
     multiple_scales_newmark,
 )
-from fivebar.modal_equations import MultiscaleError
-from fivebar.schemes import GeneralizedAlpha
-from fivebar.response import Response
-from fivebar.steady import shooting
-from fivebar.setup import Setup
+from fivebar.numerics.modal_equations import MultiscaleError
+from fivebar.numerics.schemes import GeneralizedAlpha
+from fivebar.analyses.response import Response
+from fivebar.analyses.steady import shooting
+from fivebar.description.setup import Setup
 
 
 @pytest.fixture(scope="module")

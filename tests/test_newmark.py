@@ -12,10 +12,10 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from fivebar import load_params
-from fivebar.schemes import HHT, GeneralizedAlpha, Newmark, UnstableParametersError, UnstableParametersWarning, amplification_matrix
-from fivebar.systems import PeriodicStepData, System, consistent_acceleration
+from fivebar.numerics.schemes import HHT, GeneralizedAlpha, Newmark, UnstableParametersError, UnstableParametersWarning, amplification_matrix
+from fivebar.numerics.systems import PeriodicStepData, System, consistent_acceleration
 from fivebar.errors import InputError
-from fivebar.newmark import NewtonConvergenceError, integrate
+from fivebar.numerics.newmark import NewtonConvergenceError, integrate
 
 SCHEMES = [Newmark(), HHT(-0.1), HHT(-1 / 3), GeneralizedAlpha(0.8), GeneralizedAlpha(0.0)]
 IDS = ["newmark", "hht-0.1", "hht-1/3", "ga-0.8", "ga-0.0"]

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from fivebar import load_params
-from fivebar.assembly import build_model
-from fivebar.elements import shape_functions
-from fivebar.nonlinear import STRAIN_MEASURES, NonlinearForce, element_energy, element_force
+from fivebar.model.assembly import build_model
+from fivebar.model.elements import shape_functions
+from fivebar.model.nonlinear import STRAIN_MEASURES, NonlinearForce, element_energy, element_force
 
 P = load_params()
 rng = np.random.default_rng(7)
@@ -93,7 +93,7 @@ def test_rigid_rotation_of_a_straight_element_has_the_exact_strain():
 
 def _loop_reference(m, u, th1, th4, measure):
     """The assembled force by an element loop: rotate, element_force, rotate back, scatter."""
-    from fivebar.kinematics import link_angles
+    from fivebar.model.kinematics import link_angles
 
     betas = m.element_angles(link_angles(m.params, th1, th4))
     up = np.append(u, 0.0)
@@ -206,7 +206,7 @@ def _string_beam(n, measure, load):
     """Midspan deflection (m) of a beam pinned at both ends with the axial displacement held
     there (an axially restrained, simply supported strip), under q0 sin(pi x / L), by Newton's
     method on K u + f_nl(u) = F with ``n`` elements."""
-    from fivebar.elements import assemble_line, gauss_points
+    from fivebar.model.elements import assemble_line, gauss_points
 
     L, E, A, I = 0.4, P.E, P.A, P.width * 0.002**3 / 12
     _, K = assemble_line(n, L, E, A, I, P.rho)

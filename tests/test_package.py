@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 SCRIPT = textwrap.dedent(
     """
-    import fivebar, fivebar.reporting as rep
+    import fivebar, fivebar.book.reporting as rep
     from pathlib import Path
     assert "site-packages" in fivebar.__file__ and "{root}" not in fivebar.__file__, fivebar.__file__
     p = fivebar.load_params()

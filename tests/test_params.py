@@ -113,7 +113,7 @@ def test_replace_of_entries_kept_in_their_field_alone_equals_loading_them():
     overridden (validated whole), field for field and entry for entry, and a bad value must be
     refused as loading refuses it, by name.  ``bending_depth`` is checked against the section
     even so."""
-    from fivebar.params import _FIELD_ONLY, _SCHEMA
+    from fivebar.description.params import _FIELD_ONLY, _SCHEMA
 
     assert "assumptions.crank_speed_rpm" in _FIELD_ONLY and "assumptions.bending_depth" not in _FIELD_ONLY
     p = load_params()

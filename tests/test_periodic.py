@@ -1,4 +1,4 @@
-"""Generic periodic orbits (fivebar.periodic) against closed forms.
+"""Generic periodic orbits (fivebar.numerics.periodic) against closed forms.
 
 * A damped linear oscillator under harmonic forcing: the periodic orbit is the textbook
   steady response, the Floquet multipliers are exp(lambda T) with lambda the eigenvalues of
@@ -17,10 +17,10 @@ from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
 from fivebar.errors import FivebarError
-from fivebar.schemes import GeneralizedAlpha
-from fivebar.systems import System
-from fivebar.periodic import (PeriodicProblem, ShootingError, floquet_multipliers, iterate_map,
-                              monodromy, newmark_map, shoot)
+from fivebar.numerics.schemes import GeneralizedAlpha
+from fivebar.numerics.systems import System
+from fivebar.numerics.periodic import (PeriodicProblem, ShootingError, floquet_multipliers, iterate_map,
+                                       monodromy, newmark_map, shoot)
 
 W0, ZETA, F0, OMEGA = 1.3, 0.05, 0.7, 1.1  # natural frequency, damping ratio, force, forcing frequency
 
@@ -120,9 +120,11 @@ def test_the_generic_modules_import_nothing_of_the_linkage():
     import subprocess
     import sys
 
-    code = ("import sys, fivebar.periodic, fivebar.continuation; "
+    code = ("import sys, fivebar.numerics.periodic, fivebar.numerics.continuation; "
             "bad = [m for m in sys.modules if m.startswith('fivebar.') and m not in "
-            "('fivebar.periodic', 'fivebar.continuation', 'fivebar.newmark', 'fivebar.schemes', 'fivebar.systems', 'fivebar.errors', 'fivebar.cache')]; "
+            "('fivebar.numerics', 'fivebar.numerics.periodic', 'fivebar.numerics.continuation', "
+            "'fivebar.numerics.newmark', 'fivebar.numerics.schemes', 'fivebar.numerics.systems', "
+            "'fivebar.errors', 'fivebar.cache')]; "
             "print(bad); assert not bad, bad")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr

@@ -10,8 +10,8 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from fivebar import load_params  # noqa: E402
-from fivebar.kinematics import GeometryError, positions  # noqa: E402
-from fivebar.plotting import LINK_COLORS, OKABE_ITO, PALETTE, draw_linkage, use_book_style  # noqa: E402
+from fivebar.model.kinematics import GeometryError, positions  # noqa: E402
+from fivebar.book.plotting import LINK_COLORS, OKABE_ITO, PALETTE, draw_linkage, use_book_style  # noqa: E402
 
 P = load_params()
 
@@ -63,7 +63,7 @@ def test_ghost_drawing_and_bad_input():
 # The book's figure style: column width, fonts, 2x inline PNG, legends outside, one unit
 # --------------------------------------------------------------------------------------------
 
-from fivebar.plotting import (  # noqa: E402
+from fivebar.book.plotting import (  # noqa: E402
     COLUMN_WIDTH_IN,
     LABELS,
     MIN_FONT_PT,

@@ -27,7 +27,7 @@ SCRIPT = textwrap.dedent(r'''
     import numpy as np
     import pandas as pd
     import fivebar
-    from fivebar.branches import follow
+    from fivebar.analyses.branches import follow
 
     warnings.simplefilter("ignore")
     P = fivebar.load_params()

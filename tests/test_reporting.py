@@ -1,4 +1,4 @@
-"""Tests of fivebar.reporting: the errata and assumptions tables of the book.
+"""Tests of fivebar.book.reporting: the errata and assumptions tables of the book.
 
 The reference is the data files themselves, read here independently with tomllib.
 """
@@ -9,8 +9,8 @@ import tomllib
 import pytest
 
 import fivebar
-from fivebar import reporting
-from fivebar.reporting import ReportError, assumptions_table, errata_table, format_value
+from fivebar.book import reporting
+from fivebar.book.reporting import ReportError, assumptions_table, errata_table, format_value
 
 ERRATUM = """
 [[erratum]]
@@ -122,7 +122,7 @@ def test_errata_math_columns_are_the_optional_tex_fields(tmp_path):
 def test_table_hides_the_index_and_rounds_to_significant_digits():
     import pandas as pd
 
-    from fivebar.reporting import table
+    from fivebar.book.reporting import table
 
     df = pd.DataFrame({"speed (r/min)": [60, 1440], "L2 p-p (um)": [24.8941234, 103022.5021]})
     html = table(df).to_html()
@@ -142,7 +142,7 @@ def test_a_named_table_is_a_numbered_myst_table():
     import numpy as np
     import pandas as pd
 
-    from fivebar.reporting import table
+    from fivebar.book.reporting import table
 
     df = pd.DataFrame({"case": ["a|b", "c"], "p-p (um)": [24.8941234, np.nan], "n": [3, 4]})
     md = table(df, caption="Peak-to-peak at 60 r/min.", name="tab-07-pp").data

@@ -29,11 +29,11 @@ def _code(source: str, tags: list[str] | None = None) -> dict:
 
 def _chapter_copy(tmp_path: Path, extra: str = "") -> Path:
     """Chapter 01 (its parameters cell, PARAMS_FILES = [], and its parameters from
-    fivebar.chapter.load); ``extra`` is appended as a last code cell."""
+    fivebar.book.chapter.load); ``extra`` is appended as a last code cell."""
     nb = json.loads((ROOT / "book" / "01_mechanism.ipynb").read_text())
     tagged = [c for c in nb["cells"] if "parameters" in c["metadata"].get("tags", [])]
     assert len(tagged) == 1 and "PARAMS_FILES = []" in "".join(tagged[0]["source"])
-    assert any("fivebar.chapter.load(PARAMS_FILES)" in "".join(c["source"]) for c in nb["cells"])
+    assert any("fivebar.book.chapter.load(PARAMS_FILES)" in "".join(c["source"]) for c in nb["cells"])
     nb["cells"].append(_code("print('damping ratio used:', params.damping_ratio)\n" + extra))
     path = tmp_path / "01_mechanism.ipynb"
     path.write_text(json.dumps(nb))
@@ -62,7 +62,7 @@ def test_rerun_injects_the_reader_file(tmp_path):
 def test_rerun_fails_on_a_physics_check_and_names_it(tmp_path, capsys):
     params = tmp_path / "damping.toml"
     params.write_text("[assumptions]\ndamping_ratio = 0.0123\n")
-    nb = _chapter_copy(tmp_path, "fivebar.chapter.physics_check(False, 'planted quantity', 1.0, '< 0', 'planted')")
+    nb = _chapter_copy(tmp_path, "fivebar.book.chapter.physics_check(False, 'planted quantity', 1.0, '< 0', 'planted')")
     status = rerun.main([str(params), "--chapters", str(nb), "--no-html", "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err
     assert status == 1

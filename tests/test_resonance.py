@@ -1,4 +1,4 @@
-"""Tests of fivebar.resonance: the six resonance conditions of section 3 and the Campbell diagram."""
+"""Tests of fivebar.analyses.resonance: the six resonance conditions of section 3 and the Campbell diagram."""
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -7,9 +7,8 @@ from scipy.integrate import solve_ivp
 from scipy.signal import find_peaks
 
 import fivebar
-from fivebar.resonance import (
+from fivebar.analyses.resonance import (
     ResonanceError,
-    campbell_diagram,
     classify,
     effective_frequencies,
     linkage_frequencies,
@@ -172,7 +171,7 @@ def test_resonance_speeds_solve_their_conditions(params):
 
 
 def test_campbell_diagram(params):
-    from fivebar.plotting import LABELS, MIN_FONT_PT
+    from fivebar.book.plotting import LABELS, MIN_FONT_PT, campbell_diagram
 
     ax = campbell_diagram(params, np.linspace(100, 3000, 50), n_modes=2)
     assert ax.get_xlabel() == LABELS["crank_speed"] and ax.get_ylabel() == LABELS["frequency"]
@@ -190,8 +189,8 @@ def test_campbell_diagram(params):
 
 
 def test_campbell_data_is_numbers_and_its_crossings_solve_k_omega_equals_frequency(params):
-    from fivebar.plotting import campbell_plot
-    from fivebar.resonance import CampbellData, campbell_data
+    from fivebar.book.plotting import campbell_plot
+    from fivebar.analyses.resonance import CampbellData, campbell_data
 
     cd = campbell_data(params, np.linspace(100, 3000, 50), n_modes=2)
     assert isinstance(cd, CampbellData) and cd.frequencies.shape[1] == 2

@@ -1,4 +1,4 @@
-"""The one result type in time (fivebar.response), against independent references: a
+"""The one result type in time (fivebar.analyses.response), against independent references: a
 displacement field whose point displacements follow from the kinematics and the shape
 functions by hand, the quasi-static deflection from the matrices at each time, the periodicity
 of a transient started on the orbit, and the shooting orbit against the low-speed quasi-static
@@ -13,14 +13,14 @@ import pytest
 
 import fivebar
 from fivebar import load_params
-from fivebar.dynamics import LinkageDynamics
+from fivebar.model.dynamics import LinkageDynamics
 from fivebar.errors import FivebarError
-from fivebar.kinematics import positions
-from fivebar.linkage_multiscale import MultipleScalesResponse
-from fivebar.multibody import MultibodySteadyState
-from fivebar.response import Response, quasi_static, radau, transient
-from fivebar.steady import SteadyState, shooting
-from fivebar.setup import Setup
+from fivebar.model.kinematics import positions
+from fivebar.analyses.linkage_multiscale import MultipleScalesResponse
+from fivebar.analyses.multibody import MultibodySteadyState
+from fivebar.analyses.response import Response, quasi_static, radau, transient
+from fivebar.analyses.steady import SteadyState, shooting
+from fivebar.description.setup import Setup
 
 P = load_params()
 
@@ -143,16 +143,17 @@ def test_every_result_in_time_is_read_alike():
     """Steady states and the multiple-scales approximation are Responses; the multibody result
     has the same accessor names."""
     assert issubclass(SteadyState, Response) and issubclass(MultipleScalesResponse, Response)
-    for name in ("t", "params", "crank_angle_deg", "deflection_mm", "midpoint_mm", "peak_to_peak_mm", "method",
-                 "plot"):
+    for name in ("t", "params", "crank_angle_deg", "deflection_mm", "midpoint_mm", "peak_to_peak_mm", "method"):
         assert hasattr(Response, name) or name in Response.__dataclass_fields__, name
         assert hasattr(MultibodySteadyState, name) or name in MultibodySteadyState.__dataclass_fields__, name
     assert fivebar.Response is Response and fivebar.transient is transient
 
 
 def test_plot_draws_the_midpoint_curves(dyn):
+    from fivebar.book.plotting import response_plot
+
     r = quasi_static(dyn.setup)
-    ax = r.plot()
+    ax = response_plot(r)
     lines = ax.get_lines()
     assert [ln.get_label() for ln in lines] == ["L2 (quasi-static)", "L3 (quasi-static)"]
     assert np.array_equal(lines[0].get_ydata(), 1e3 * r.midpoint_mm("L2"))

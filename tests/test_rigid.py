@@ -6,8 +6,8 @@ from crank_laws import general_laws as _general_laws
 from scipy.integrate import solve_ivp
 
 from fivebar import load_params
-from fivebar.kinematics import GeometryError, LINKS, crank_laws, positions, rigid_state
-from fivebar.rigid import (
+from fivebar.model.kinematics import GeometryError, LINKS, crank_laws, positions, rigid_state
+from fivebar.model.rigid import (
     InertiaModel,
     forward_dynamics,
     gravity_terms,
@@ -266,7 +266,7 @@ def test_mass_matrix_against_the_finite_element_mass(mesh):
     the projection equals M of the links and lumped masses, plus a constant diagonal: the
     motor elements' torsional shaft inertia (their torsion shapes vanish at the rotor, so J0
     does not enter the FE model)."""
-    from fivebar.assembly import build_model
+    from fivebar.model.assembly import build_model
 
     q = P.replace(rotary_inertia=0)
     model = build_model(q, elements_per_link=mesh)
@@ -291,7 +291,7 @@ def test_four_bar_crank_torque_is_the_energy_rate():
     body by body from finite differences of the loop-closure positions alone (no velocity of
     rigid.py or rigid_state), along a non-uniform crank law and with a rotor on the crank."""
     from fivebar import DEFAULT_PARAMS_PATH, FOURBAR_PARAMS_PATH
-    from fivebar.kinematics import link_angles
+    from fivebar.model.kinematics import link_angles
 
     q = load_params([DEFAULT_PARAMS_PATH, FOURBAR_PARAMS_PATH]).replace(gravity=9.81)
     lk = q.linkage

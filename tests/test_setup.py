@@ -18,7 +18,7 @@ import pytest
 
 import fivebar
 from fivebar import PAPER_SCHEME, FivebarError, Setup, load_params, steady_state
-from fivebar.newmark import NewtonConvergenceError
+from fivebar.numerics.newmark import NewtonConvergenceError
 
 P = load_params()
 LIB = Path(fivebar.__file__).parent
@@ -80,8 +80,8 @@ def test_damped_shooting_converges_with_the_paper_rule_at_114_rpm():
 
 
 def _modules():
-    for m in pkgutil.iter_modules([str(LIB)]):
-        yield importlib.import_module(f"fivebar.{m.name}")
+    for m in pkgutil.walk_packages([str(LIB)], "fivebar."):
+        yield importlib.import_module(m.name)
 
 
 def test_every_library_exception_derives_from_fivebar_error():
@@ -96,7 +96,7 @@ def test_every_library_exception_derives_from_fivebar_error():
                     assert issubclass(obj, (ValueError, RuntimeError, TypeError, MemoryError)), obj
     assert len(found) >= 12
     # no bare standard exceptions raised by any module (newmark's and nonlinear's included)
-    for path in LIB.glob("*.py"):
+    for path in LIB.rglob("*.py"):
         assert not re.search(r"raise (ValueError|RuntimeError|TypeError)\(", path.read_text()), path.name
 
 
@@ -113,7 +113,7 @@ def test_public_names_are_unique():
 
 
 def test_the_default_scheme_is_defined_once():
-    for path in LIB.glob("*.py"):
+    for path in LIB.rglob("*.py"):
         if path.name in ("schemes.py", "setup.py"):
             continue
         src = path.read_text()
@@ -123,26 +123,31 @@ def test_the_default_scheme_is_defined_once():
 def test_generic_solvers_import_nothing_of_the_linkage():
     import ast
 
-    generic = {"cache", "newmark", "schemes", "systems", "_kernels", "_jitcache", "eigen", "errors", "newton", "modal_equations", "multiscale",
-               "response_curves", "periodic", "continuation"}
-    for name in sorted(generic):
-        tree = ast.parse((LIB / f"{name}.py").read_text())
-        local = set()
+    allowed = ("fivebar.numerics", "fivebar.errors", "fivebar.cache")
+    for path in sorted((LIB / "numerics").glob("*.py")):
+        tree = ast.parse(path.read_text())
+        package = "fivebar.numerics".split(".")
+        found = set()
         for n in ast.walk(tree):  # imports inside functions count too
-            if isinstance(n, ast.ImportFrom) and n.level == 1:
-                local |= {n.module} if n.module else {a.name for a in n.names}
-        assert local <= generic, (name, local - generic)
+            if isinstance(n, ast.ImportFrom) and n.level:
+                base = package[:len(package) - (n.level - 1)]
+                found.add(".".join(base + ([n.module] if n.module else [])))
+            elif isinstance(n, (ast.Import, ast.ImportFrom)):
+                names = [n.module] if isinstance(n, ast.ImportFrom) else [a.name for a in n.names]
+                found |= {m for m in names if m == "fivebar" or m.startswith("fivebar.")}
+        bad = {m for m in found if not m.startswith(allowed)}
+        assert not bad, (path.name, bad)
         # no module-level __getattr__ that could import the linkage back (the old shim)
-        assert not any(isinstance(n, ast.FunctionDef) and n.name == "__getattr__" for n in tree.body), name
-    import fivebar.multiscale
+        assert not any(isinstance(n, ast.FunctionDef) and n.name == "__getattr__" for n in tree.body), path.name
+    import fivebar.numerics.multiscale
 
-    assert not hasattr(fivebar.multiscale, "compare_starts")  # the linkage glue lives in linkage_multiscale
+    assert not hasattr(fivebar.numerics.multiscale, "compare_starts")  # the linkage glue lives in linkage_multiscale
 
 
 def test_analyses_take_a_setup_or_params_alike():
     """A Params is Setup(params): the same result from either, with no keyword."""
-    from fivebar.resonance import resonance_table
-    from fivebar.sweep import speed_sweep
+    from fivebar.analyses.resonance import resonance_table
+    from fivebar.analyses.sweep import speed_sweep
 
     a = resonance_table(P.replace(crank_speed_rpm=300.0))
     b = resonance_table(Setup(P, crank_speed_rpm=300.0))
@@ -155,11 +160,12 @@ def test_analyses_take_a_setup_or_params_alike():
 
 def _analyses():
     """(name, function, the arguments after the problem) of every analysis of the linkage."""
-    from fivebar import branches, figure6, linkage_multiscale as lm, modal, resonance, response, steady, sweep
-    from fivebar.control_simulation import closed_loop_multipliers, simulate_cycle
+    from fivebar.analyses import branches, figure6, linkage_multiscale as lm, modal, resonance, response, steady, sweep
+    from fivebar.book import plotting
+    from fivebar.analyses.control.control_simulation import closed_loop_multipliers, simulate_cycle
 
     return [
-        ("steady_state", steady.steady_state, ()), ("shooting", steady.shooting, ()), ("march", steady.march, ()),
+        ("steady_state", branches.steady_state, ()), ("shooting", steady.shooting, ()), ("march", steady.march, ()),
         ("transient", response.transient, ()), ("quasi_static", response.quasi_static, ()),
         ("radau", response.radau, ([0.0, 1e-3],)),
         ("sweep_point", sweep.sweep_point, ()), ("speed_sweep", sweep.speed_sweep, ([100.0],)),
@@ -167,7 +173,7 @@ def _analyses():
         ("initial_state", lm.initial_state, ()), ("compare_starts", lm.compare_starts, ([100.0],)),
         ("resonance_table", resonance.resonance_table, ()), ("resonance_speeds", resonance.resonance_speeds, ()),
         ("campbell_data", resonance.campbell_data, ([100.0, 200.0],)),
-        ("campbell_diagram", resonance.campbell_diagram, ([100.0, 200.0],)),
+        ("campbell_diagram", plotting.campbell_diagram, ([100.0, 200.0],)),
         ("linkage_frequencies", resonance.linkage_frequencies, ()),
         ("spin_softening", resonance.spin_softening, ()),
         ("effective_frequencies", resonance.effective_frequencies, ()),
@@ -206,9 +212,9 @@ def test_a_layered_parameter_file_is_the_default_of_every_analysis(tmp_path):
     """The parameter file's entries are the problem's defaults, read once: a layer that changes
     S, the scheme and the speed changes what every analysis computes, with no keyword anywhere
     (the reference: the same analyses of a Setup that says the three explicitly)."""
-    from fivebar.params import DEFAULT_PARAMS_PATH
-    from fivebar.resonance import resonance_table
-    from fivebar.sweep import speed_sweep
+    from fivebar.description.params import DEFAULT_PARAMS_PATH
+    from fivebar.analyses.resonance import resonance_table
+    from fivebar.analyses.sweep import speed_sweep
 
     layer = tmp_path / "layer.toml"
     layer.write_text("[simulation]\nsteps_per_period = 60\nscheme = \"newmark\"\n\n"
@@ -230,7 +236,7 @@ def test_speed_sweep_of_a_nonlinear_problem_is_nonlinear():
     """speed_sweep solves the problem it is given: with the nonlinearity (the thin section,
     where it changes the response by more than 10 %) each row equals the steady state of the
     same problem at that speed, not the linear model's (the sweep's old default)."""
-    from fivebar.sweep import speed_sweep
+    from fivebar.analyses.sweep import speed_sweep
 
     s = Setup(P.replace(bending_depth=0.002), motors=False, steps_per_period=200)
     rpm = 120.0

@@ -1,4 +1,4 @@
-"""Tests of fivebar.sweep: steady-state amplitude against crank speed, serial and parallel."""
+"""Tests of fivebar.analyses.sweep: steady-state amplitude against crank speed, serial and parallel."""
 
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
@@ -7,10 +7,10 @@ import pandas as pd
 import pytest
 
 import fivebar
-from fivebar.resonance import resonance_speeds
+from fivebar.analyses.resonance import resonance_speeds
 from fivebar import clear_cache
 from fivebar.cache import STORE
-from fivebar.sweep import SweepError, match_peaks, speed_sweep, sweep_peaks
+from fivebar.analyses.sweep import SweepError, match_peaks, speed_sweep, sweep_peaks
 
 SPEEDS = [100.0, 700.0, 1300.0]
 
@@ -49,7 +49,7 @@ def test_threads_and_cache(params, serial):
     with ThreadPoolExecutor(max_workers=2) as ex:
         a = speed_sweep(fivebar.Setup(params, nonlinear=False), SPEEDS[::-1], executor=ex, progress=True)
     _same(a.iloc[::-1].reset_index(drop=True), serial)
-    from fivebar import sweep as module
+    from fivebar.analyses import sweep as module
 
     assert len(STORE.keys(module._POINTS)) == 3
     b = speed_sweep(fivebar.Setup(params, nonlinear=False), SPEEDS, progress=False)  # served from the cache, in the order asked

@@ -16,8 +16,8 @@ from scipy.integrate import solve_bvp
 
 import fivebar
 from fivebar.errors import FivebarError
-from fivebar.steady import DEFLECTION_LIMIT, ValidityWarning
-from fivebar.sweep import speed_sweep
+from fivebar.analyses.steady import DEFLECTION_LIMIT, ValidityWarning
+from fivebar.analyses.sweep import speed_sweep
 
 
 @pytest.fixture(scope="module")

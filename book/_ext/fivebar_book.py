@@ -10,8 +10,8 @@ Loaded by ``_config.yml`` (``sphinx.local_extensions``).  It does five things:
    from a CDN.
 
 2. **Tables generated from data.**  ``{fivebar-table} errata`` and
-   ``{fivebar-table} assumptions`` render :func:`fivebar.reporting.errata_table` and
-   :func:`fivebar.reporting.assumptions_table` as ordinary (searchable) tables, rebuilt
+   ``{fivebar-table} assumptions`` render :func:`fivebar.book.reporting.errata_table` and
+   :func:`fivebar.book.reporting.assumptions_table` as ordinary (searchable) tables, rebuilt
    whenever ``data/errata.toml`` or ``data/wang2011.toml`` changes.
 
 3. **The equation index.**  ``{equation-index}`` takes one line per equation of the paper,
@@ -24,7 +24,7 @@ Loaded by ``_config.yml`` (``sphinx.local_extensions``).  It does five things:
    not in ``data/errata.toml`` or the parameter file fails the build, naming the allowed ids.
 
 5. **The linkage figure of the front page.**  ``{linkage-figure}`` draws Figure 1 with
-   :func:`fivebar.plotting.draw_linkage` at build time and embeds it as inline SVG, so the
+   :func:`fivebar.book.plotting.draw_linkage` at build time and embeds it as inline SVG, so the
    picture can never drift from the model's geometry.
 """
 
@@ -274,7 +274,7 @@ def _assumption_rows(df: Any, fmt: Any, inline: Any) -> tuple[list[str], list[li
     return ["Assumption and value", "Reason", "Alternative shown"], rows, [24, 50, 26], ids
 
 
-#: table name -> (function of fivebar.reporting, layout)
+#: table name -> (function of fivebar.book.reporting, layout)
 _TABLES = {
     "errata": ("errata_table", _errata_rows),
     "assumptions": ("assumptions_table", _assumption_rows),
@@ -291,7 +291,7 @@ class FivebarTable(SphinxDirective):
         name = self.arguments[0]
         if name not in _TABLES:
             raise self.error(f"fivebar-table: unknown table {name!r}; allowed: {sorted(_TABLES)}")
-        import fivebar.reporting as reporting
+        import fivebar.book.reporting as reporting
 
         func, layout = _TABLES[name]
         for dep in reporting.data_files():
@@ -358,10 +358,10 @@ def _library_citations(exclude: set[str]) -> dict[str, list[tuple[str, str]]]:
     import fivebar
 
     cites: dict[str, list[tuple[str, str]]] = {}
-    for info in sorted(pkgutil.iter_modules(fivebar.__path__), key=lambda i: i.name):
-        if info.name.startswith("_"):
+    for info in sorted(pkgutil.walk_packages(fivebar.__path__, "fivebar."), key=lambda i: i.name):
+        if info.name.rpartition(".")[2].startswith("_"):
             continue
-        modname = f"fivebar.{info.name}"
+        modname = info.name
         try:
             module = importlib.import_module(modname)
         except Exception as exc:  # a module that does not import is a bug: say so
@@ -427,7 +427,7 @@ class EquationIndex(SphinxDirective):
         lib = _library_citations(exclude)
         import fivebar
 
-        for p in Path(fivebar.__file__).parent.glob("*.py"):
+        for p in Path(fivebar.__file__).parent.rglob("*.py"):
             self.env.note_dependency(str(p))
 
         chapters: dict[str, list[str]] = {}
@@ -516,7 +516,7 @@ class EquationIndex(SphinxDirective):
 
 def _known_ids() -> tuple[list[str], list[str]]:
     """The errata ids and assumption keys of the data files (read at every build)."""
-    import fivebar.reporting as reporting
+    import fivebar.book.reporting as reporting
 
     errata = [str(i) for i in reporting.errata_table()["id"]]
     assumptions = [str(k) for k in reporting.assumptions_table()["key"]]
@@ -544,7 +544,7 @@ def _data_role(kind: str) -> Any:
             ref += nodes.inline(rawtext, key, classes=["fivebar-erratum"])
         else:
             ref += nodes.literal(rawtext, key, classes=["fivebar-assumption"])
-        for dep in __import__("fivebar.reporting", fromlist=["data_files"]).data_files():
+        for dep in __import__("fivebar.book.reporting", fromlist=["data_files"]).data_files():
             env.note_dependency(str(dep))
         return [ref], []
 
@@ -557,14 +557,14 @@ def _data_role(kind: str) -> Any:
 
 
 def _linkage_drawing(theta1_deg: float, theta4_deg: float, fmt: str) -> bytes:
-    """Figure 1 of the paper drawn by :func:`fivebar.plotting.draw_linkage`, saved as ``fmt``."""
+    """Figure 1 of the paper drawn by :func:`fivebar.book.plotting.draw_linkage`, saved as ``fmt``."""
     import io
 
     import matplotlib as mpl
     from matplotlib.figure import Figure
 
     import fivebar
-    from fivebar.plotting import draw_linkage, use_book_style
+    from fivebar.book.plotting import draw_linkage, use_book_style
 
     with mpl.rc_context():
         use_book_style(inline=False)
@@ -583,7 +583,7 @@ def _linkage_drawing(theta1_deg: float, theta4_deg: float, fmt: str) -> bytes:
 
 
 def linkage_svg(theta1_deg: float = 135.0, theta4_deg: float = 60.0) -> str:
-    """Figure 1 of the paper drawn by :func:`fivebar.plotting.draw_linkage`, as SVG text."""
+    """Figure 1 of the paper drawn by :func:`fivebar.book.plotting.draw_linkage`, as SVG text."""
     svg = _linkage_drawing(theta1_deg, theta4_deg, "svg").decode()
     svg = svg[svg.index("<svg"):]  # inline: no XML declaration or doctype
     # scale with the column: the viewBox keeps the aspect, CSS sets the width
@@ -606,7 +606,7 @@ class LinkageFigure(SphinxDirective):
                 angles[key] = float(raw)
             except (TypeError, ValueError):
                 raise self.error(f"linkage-figure: :{key}: {raw!r} is not allowed: give an angle in degrees") from None
-        import fivebar.plotting as plotting
+        import fivebar.book.plotting as plotting
 
         self.env.note_dependency(plotting.__file__)
         try:
@@ -700,7 +700,7 @@ def _link_errata_in_docstring(app: Sphinx, what: str, name: str, obj: Any, optio
     # math, code or other directive blocks).
     global _ERRATA_IDS
     if _ERRATA_IDS is None:
-        import fivebar.reporting as reporting
+        import fivebar.book.reporting as reporting
 
         _ERRATA_IDS = set(reporting.errata_table()["id"])
     for i in _prose_lines(lines):
@@ -724,11 +724,11 @@ def _public_api() -> dict[str, set[str]]:
         import fivebar
 
         api: dict[str, set[str]] = {}
-        for info in pkgutil.iter_modules(fivebar.__path__):
-            if info.name.startswith("_"):
+        for info in pkgutil.walk_packages(fivebar.__path__, "fivebar."):
+            if info.name.rpartition(".")[2].startswith("_"):
                 continue
             try:
-                module = importlib.import_module(f"fivebar.{info.name}")
+                module = importlib.import_module(info.name)
             except Exception:
                 continue
             for name in getattr(module, "__all__", []):
@@ -754,7 +754,7 @@ def _missing_reference(app: Sphinx, env: Any, node: nodes.Element,
     head, _, rest = target.partition(".")
     owners = _public_api().get(head, set())
     # A short name of the public API used in another module ("Model" in a type hint of
-    # fivebar.nonlinear) links to the one object of that name.
+    # fivebar.model.nonlinear) links to the one object of that name.
     if len(owners) == 1:
         qual = next(iter(owners)) + ("." + rest if rest else "")
         domain = env.get_domain("py")

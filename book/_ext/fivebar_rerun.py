@@ -34,7 +34,7 @@ Chapters run in parallel (``--jobs``, default 2: the kernels are separate proces
 numba cache is shared).  The exit status is 0 when every chapter ran without a cell error,
 1 otherwise: each failure is named by chapter and cell (index in the executed notebook,
 execution count, first line of the cell, the error; a failed physics check is a
-``fivebar.chapter.CheckFailed``), and 2 for bad arguments (a file that does not exist, an
+``fivebar.book.chapter.CheckFailed``), and 2 for bad arguments (a file that does not exist, an
 unknown chapter, a chapter without a ``parameters`` cell).
 """
 

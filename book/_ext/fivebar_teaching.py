@@ -8,12 +8,12 @@ Loaded by ``_config.yml`` (``sphinx.local_extensions``) next to ``fivebar_book``
    ``{learning-objectives}`` (no argument) the current chapter's entry, for the top of a
    chapter.
 
-2. **Data downloads**: at ``builder-inited`` the CSV files of :mod:`fivebar.datasets` are
+2. **Data downloads**: at ``builder-inited`` the CSV files of :mod:`fivebar.book.datasets` are
    written to ``book/_generated/data/`` (not in git; skipped when the parameter file and the
    library's sources are unchanged), and ``{data-downloads}`` lists the current chapter's
    files as download links (Sphinx copies them to ``_downloads/``).
 
-3. **Animations**: :func:`fivebar.animation.show` writes a page next to the notebook
+3. **Animations**: :func:`fivebar.book.animation.show` writes a page next to the notebook
    (``book/_generated/anim/*.html``, written when the notebook runs) and displays an iframe;
    at ``build-finished`` the pages are copied next to the built chapters, and a chapter whose
    iframe names a missing page fails the build.
@@ -308,8 +308,8 @@ class CourseMap(SphinxDirective):
 # --------------------------------------------------------------------------------------------
 
 def downloads_for(docname: str) -> list[str]:
-    """Names of the :data:`fivebar.datasets.DATASETS` that chapter ``docname`` links."""
-    from fivebar.datasets import DATASETS
+    """Names of the :data:`fivebar.book.datasets.DATASETS` that chapter ``docname`` links."""
+    from fivebar.book.datasets import DATASETS
 
     base = docname.rsplit("/", 1)[-1]
     return [n for n, d in DATASETS.items() if d.chapter == base]
@@ -322,7 +322,7 @@ class DataDownloads(SphinxDirective):
     optional_arguments = 1
 
     def run(self) -> list[nodes.Node]:
-        from fivebar.datasets import DATASETS
+        from fivebar.book.datasets import DATASETS
 
         doc = self.arguments[0] if self.arguments else self.env.docname
         names = downloads_for(doc)
@@ -347,7 +347,7 @@ class DataDownloads(SphinxDirective):
 
 
 def _write_datasets(app: Sphinx) -> None:
-    from fivebar.datasets import write_datasets
+    from fivebar.book.datasets import write_datasets
 
     out = Path(app.srcdir) / GENERATED / "data"
     t0 = time.perf_counter()

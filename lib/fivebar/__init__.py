@@ -5,47 +5,46 @@ A library and a Jupyter Book reproducing and extending R.-G. Wang, G.-W. Cai and
 controllable close-chain linkage mechanism system*, Mathematical Problems in Engineering
 2011, 254547.  Equation numbers in docstrings are the paper's.
 
-The facade below is what the chapters use; the modules hold the rest.  Units at the API: SI,
-or the unit in the name (``crank_speed_rpm``, ``SteadyState.midpoint_mm``, ``crank_angle_deg``).
+The facade below is what the chapters use; the modules hold the rest, in subpackages by layer,
+each importing only the layers below it: ``numerics`` (generic solvers), ``description`` (the
+parameters, the linkage, a set-up), ``model`` (the linkage's equations), ``analyses`` and
+``book`` (what the chapters use to show results); ``errors`` and ``cache`` at the root.  Units at
+the API: SI, or the unit in the name (``crank_speed_rpm``, ``SteadyState.midpoint_mm``,
+``crank_angle_deg``).
 """
 
 # The facade is lazy (PEP 562): ``import fivebar`` loads no heavy module (scipy submodules,
 # matplotlib, pandas, control, numba); a name is imported from its module on first use.
 _FACADE = {
     "clear_cache": "cache",
-    "linear_model": "control_model",
+    "linear_model": "analyses.control.control_model",
     "FivebarError": "errors",
-    "PAPER_SCHEME": "setup", "Setup": "setup",
-    "multibody_frequencies": "multibody", "multibody_steady_state": "multibody",
-    "beam_element": "elements", "motor_element": "elements",
-    "GeometryError": "kinematics", "positions": "kinematics",
-    "excitation_frequencies": "excitation", "load_expansion": "excitation",
-    "natural_frequencies": "modal",
-    "MultipleScalesResponse": "linkage_multiscale", "multiple_scales": "linkage_multiscale",
-    "multiple_scales_newmark": "linkage_multiscale",
-    "GeneralizedAlpha": "schemes", "HHT": "schemes", "Newmark": "schemes",
-    "UnstableParametersError": "schemes",
-    "NewtonConvergenceError": "newmark", "integrate": "newmark",
-    "DEFAULT_PARAMS_PATH": "params", "FOURBAR_PARAMS_PATH": "params", "Motor": "params", "ParameterError": "params",
-    "Params": "params", "load_params": "params",
-    "campbell_diagram": "resonance", "resonance_table": "resonance",
-    "Response": "response", "quasi_static": "response", "radau": "response", "transient": "response",
-    "SteadyState": "steady", "SteadyStateError": "steady", "ValidityWarning": "steady", "steady_state": "steady",
-    "SweepInterrupted": "sweep", "speed_sweep": "sweep",
+    "PAPER_SCHEME": "description.setup", "Setup": "description.setup",
+    "multibody_frequencies": "analyses.multibody", "multibody_steady_state": "analyses.multibody",
+    "beam_element": "model.elements", "motor_element": "model.elements",
+    "GeometryError": "model.kinematics", "positions": "model.kinematics",
+    "excitation_frequencies": "model.excitation", "load_expansion": "model.excitation",
+    "natural_frequencies": "analyses.modal",
+    "MultipleScalesResponse": "analyses.linkage_multiscale", "multiple_scales": "analyses.linkage_multiscale",
+    "multiple_scales_newmark": "analyses.linkage_multiscale",
+    "GeneralizedAlpha": "numerics.schemes", "HHT": "numerics.schemes", "Newmark": "numerics.schemes",
+    "UnstableParametersError": "numerics.schemes",
+    "NewtonConvergenceError": "numerics.newmark", "integrate": "numerics.newmark",
+    "DEFAULT_PARAMS_PATH": "description.params", "FOURBAR_PARAMS_PATH": "description.params",
+    "Motor": "description.params", "ParameterError": "description.params",
+    "Params": "description.params", "load_params": "description.params",
+    "campbell_diagram": "book.plotting", "resonance_table": "analyses.resonance",
+    "Response": "analyses.response", "quasi_static": "analyses.response", "radau": "analyses.response",
+    "transient": "analyses.response",
+    "SteadyState": "analyses.steady", "SteadyStateError": "analyses.steady", "ValidityWarning": "analyses.steady",
+    "steady_state": "analyses.branches",
+    "SweepInterrupted": "analyses.sweep", "speed_sweep": "analyses.sweep",
 }
-
-
-# Modules a chapter reaches as ``fivebar.<module>`` without importing them first.
-_SUBMODULES = ("chapter",)
 
 
 def __getattr__(name: str):
     import importlib
 
-    if name in _SUBMODULES:
-        value = importlib.import_module(f".{name}", __name__)
-        globals()[name] = value
-        return value
     module = _FACADE.get(name)
     if module is None:
         raise AttributeError(f"module 'fivebar' has no attribute {name!r}")

@@ -2,15 +2,15 @@
 
 Everything the library keeps between calls lives in :data:`STORE`: the sampled matrices of a
 linkage (M, C, K and F at the S step times, owned by
-:class:`fivebar.dynamics.LinkageDynamics`), the model and the built
-:class:`~fivebar.dynamics.LinkageDynamics` of a set-up (two equal
-:class:`fivebar.setup.Setup` share one), the remembered orbits of
+:class:`fivebar.model.dynamics.LinkageDynamics`), the model and the built
+:class:`~fivebar.model.dynamics.LinkageDynamics` of a set-up (two equal
+:class:`fivebar.description.setup.Setup` share one), the remembered orbits of
 ``steady_state(..., tol=...)``, the points of a speed sweep, the modal data of the resonance
 tables and the small tables of the elements (Gauss-Legendre nodes, element integrals).  The
-per-result values of a :class:`fivebar.response.Response` (its element displacements, its
+per-result values of a :class:`fivebar.analyses.response.Response` (its element displacements, its
 stresses) belong to that result, and the LU factors of a step's tangent to its
-:class:`fivebar.systems.PeriodicStepData`: they go with their object (a stored
-:class:`~fivebar.dynamics.LinkageDynamics` carries its step data, so they count here).
+:class:`fivebar.numerics.systems.PeriodicStepData`: they go with their object (a stored
+:class:`~fivebar.model.dynamics.LinkageDynamics` carries its step data, so they count here).
 
 The store forgets the least recently used entry first, while it holds more than
 ``max_entries`` entries or more than ``max_bytes`` bytes (the newest entry always stays).  The

@@ -1,0 +1,148 @@
+"""What a chapter needs to be rerun with a reader's parameters: its parameter set and its checks.
+
+Every chapter of the book starts with one *parameters cell* (tagged ``parameters``, the
+convention of papermill), which names the parameter files layered over the book's own and the
+few knobs the chapter turns::
+
+    PARAMS_FILES = []          # your TOML files over the book's, e.g. ["mine.toml"]
+
+    params = fivebar.book.chapter.load(PARAMS_FILES)
+
+Everything below is computed from ``params``.  A chapter checks two kinds of statements:
+
+* :func:`physics_check`: true for any sensible parameters (two methods agree, a mesh
+  converges, an energy balances).  A failure raises :class:`CheckFailed` whose message names
+  the quantity, its value, the bound and what the check means, so a rerun that breaks one
+  says which quantity moved.
+* :func:`book_value_check`: the book's parameters reproduce a stored number (the paper's
+  table, a value quoted in the text).  It is checked only when the parameters are the book's;
+  otherwise it prints, visibly, that it was skipped and which entries differ.
+
+No equation of the paper is implemented here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import FivebarError, InputError, number
+from ..description.params import DEFAULT_PARAMS_PATH, Params, load_params
+
+__all__ = ["CheckFailed", "book_value_check", "differences", "is_book_params", "load", "physics_check"]
+
+
+class CheckFailed(FivebarError, RuntimeError):
+    """A chapter's check failed: the message names the quantity, its value, the bound and what
+    the check means."""
+
+
+Files = str | Path | Iterable[str | Path]
+
+
+def _paths(name: str, files: Files) -> list[Path]:
+    if isinstance(files, str) and files.strip().startswith("["):
+        # papermill's -p passes a list as its text: '["mine.toml"]' is not a file name
+        raise InputError(f"{name} = {files!r} is not allowed: it is a list written as a string (papermill's -p "
+                         "passes text); give a list, e.g. papermill ... -y 'PARAMS_FILES: [mine.toml]'")
+    if isinstance(files, (str, Path)):
+        files = [files]
+    try:
+        return [Path(f) for f in files]
+    except TypeError:
+        raise InputError(f"{name} = {files!r} is not allowed: give a TOML file or a list of them") from None
+
+
+def load(files: Files = (), base: Files = DEFAULT_PARAMS_PATH, overrides: dict[str, Any] | None = None) -> Params:
+    """The chapter's parameters: ``files`` (the reader's, entry by entry) layered over ``base``
+    (the book's file or files: ``[fivebar.DEFAULT_PARAMS_PATH, fivebar.FOURBAR_PARAMS_PATH]``
+    for the four-bar chapter).
+
+    ``files`` is one path or a sequence of them (empty: the book's parameters unchanged);
+    relative paths are read from the working directory of the notebook's kernel.
+    """
+    return load_params([*_paths("base", base), *_paths("files", files)], overrides=overrides)
+
+
+def differences(params: Params, reference: Params | Files | None = None) -> dict[str, tuple[Any, Any]]:
+    """The entries in which ``params`` differ from ``reference`` (default: the book's
+    ``wang2011.toml``; a path or a list of paths loads those files in layers, as :func:`load`'s
+    ``base``): dotted key -> (reference's value, params' value)."""
+    if reference is None:
+        reference = load_params()
+    elif not isinstance(reference, Params):
+        reference = load_params(_paths("reference", reference))
+    a, b = dict(reference.values), dict(params.values)
+    out = {}
+    for key in sorted(set(a) | set(b)):
+        if a.get(key, None) != b.get(key, None):
+            out[key] = (a.get(key), b.get(key))
+    return out
+
+
+def is_book_params(params: Params, reference: Params | Files | None = None) -> bool:
+    """Whether ``params`` are the book's (no entry differs from ``reference``)."""
+    return not differences(params, reference)
+
+
+def _fmt(x: Any) -> str:
+    if isinstance(x, (float, np.floating)):
+        return f"{float(x):.6g}"
+    if isinstance(x, np.ndarray):
+        return np.array2string(x, precision=6)
+    return str(x)
+
+
+def physics_check(ok: Any, quantity: str, value: Any, bound: str, meaning: str) -> None:
+    """Check a statement that holds for any sensible parameters.
+
+    ``ok`` is the outcome (a bool or a NumPy bool); ``quantity`` names what was measured,
+    ``value`` its value, ``bound`` the bound in words (``"< 1e-6"``, ``"within 1 % of
+    S = 3200"``) and ``meaning`` what the check establishes and what a failure means.
+
+    >>> physics_check(abs(2.0 - 2.0) < 1e-9, "energy change", 0.0, "< 1e-9", "energy is conserved")
+
+    Raises
+    ------
+    CheckFailed
+        When ``ok`` is false: "physics check failed: <quantity> = <value>, expected <bound>:
+        <meaning>".
+    """
+    if not isinstance(quantity, str) or not quantity:
+        raise InputError(f"quantity = {quantity!r} is not allowed: name the quantity checked")
+    if not bool(np.all(ok)):
+        raise CheckFailed(f"physics check failed: {quantity} = {_fmt(value)}, expected {bound}: {meaning}")
+
+
+def book_value_check(params: Params, quantity: str, value: Any, stored: Any, rtol: float = 1e-6,
+                     atol: float = 0.0, reference: Params | Files | None = None) -> bool:
+    """Check that the book's parameters reproduce a stored number; skip, visibly, otherwise.
+
+    With the book's parameters (``params`` equal to ``reference``, by default ``wang2011.toml``)
+    ``value`` must be within ``rtol`` (relative) or ``atol`` (absolute) of ``stored``, and the
+    function returns True.  With other parameters it prints one line saying that the check of
+    ``quantity`` was skipped and which entries differ, and returns False.
+
+    Raises
+    ------
+    CheckFailed
+        With the book's parameters and a value away from the stored one.
+    """
+    rtol, atol = number("rtol", rtol, low=0), number("atol", atol, low=0)
+    diff = differences(params, reference)
+    if diff:
+        keys = ", ".join(diff) if len(diff) <= 4 else ", ".join(list(diff)[:4]) + f" and {len(diff) - 4} more"
+        print(f"Book value not checked (these are not the book's parameters: {keys} differ): "
+              f"{quantity} = {_fmt(value)}; the book's parameters give {_fmt(stored)}.")
+        return False
+    v, s = np.asarray(value, dtype=float), np.asarray(stored, dtype=float)
+    if v.shape != s.shape and v.size != 1 and s.size != 1:
+        raise InputError(f"value and stored have shapes {v.shape} and {s.shape}: give numbers or arrays "
+                         "of one shape")
+    if not np.allclose(v, s, rtol=rtol, atol=atol, equal_nan=False):
+        raise CheckFailed(f"book value check failed: {quantity} = {_fmt(value)}, the book's parameters "
+                          f"must give {_fmt(stored)} (rtol {rtol:g}, atol {atol:g})")
+    return True

@@ -1,0 +1,419 @@
+r"""Periodic orbits of periodically forced systems: shooting, Floquet multipliers, stability.
+
+A *period map* advances the state :math:`\mathbf x` of a periodically forced system over one
+period :math:`T` of its forcing, :math:`\mathbf x \mapsto \mathbf P(\mathbf x; p)`, at a
+parameter value ``p``.  A periodic orbit is a fixed point,
+
+.. math::
+
+    \mathbf G(\mathbf x; p) = \mathbf P(\mathbf x; p) - \mathbf x = \mathbf 0,
+
+and its *monodromy matrix* :math:`\boldsymbol\Phi = \partial\mathbf P/\partial\mathbf x` at the
+fixed point has the Floquet multipliers as eigenvalues: the orbit is asymptotically stable when
+all lie inside the unit circle.  :func:`shoot` solves :math:`\mathbf G = \mathbf 0` by Newton's
+method with the Jacobian :math:`\boldsymbol\Phi - \mathbf I`.
+
+This module imports nothing of the linkage (like :mod:`fivebar.numerics.newmark`).  The protocol of a
+period map (:class:`PeriodMap`) is one callable::
+
+    x_T, Phi = period_map(x, p, jacobian)
+
+returning the state after one period and, if ``jacobian`` is true, the monodromy matrix, or
+``None`` where the integrator gives no tangent (then :func:`monodromy` takes finite
+differences).  :func:`newmark_map` builds one from a family of second-order systems of the
+protocol of :mod:`fivebar.numerics.systems` (:class:`~fivebar.numerics.systems.SecondOrderSystem` integrated by
+:func:`~fivebar.numerics.newmark.integrate`), with the monodromy matrix from the integrator's step
+tangents.  The state is :math:`\mathbf x = (\mathbf u, \dot{\mathbf u})` at the start of the
+period; the alpha schemes carry an algorithmic acceleration as well, which is started, as
+:func:`~fivebar.numerics.newmark.integrate` does, from the equation of motion (so the map and its
+monodromy matrix are those of :math:`(\mathbf u, \dot{\mathbf u})` with a consistent initial
+acceleration).
+
+The multipliers of the discrete map converge to those of the differential equation as
+:math:`\Delta t^2` for the second-order schemes (tests: a damped linear oscillator, whose
+multipliers are :math:`e^{\lambda_i T}`, and the first instability tongue of Mathieu's equation).
+Only non-autonomous systems are meant: the period is that of the forcing, so no phase
+condition is needed.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import ComputationError, InputError
+from .newmark import NewtonConvergenceError, _blas_threads, integrate
+from .schemes import GENERIC_SCHEME, Scheme
+from .systems import PeriodicStepData, SecondOrderSystem
+
+__all__ = [
+    "PeriodMap",
+    "PeriodicOrbit",
+    "PeriodicProblem",
+    "ShootingError",
+    "floquet_multipliers",
+    "iterate_map",
+    "monodromy",
+    "newmark_map",
+    "shoot",
+]
+
+Array = NDArray[np.float64]
+
+
+class ShootingError(ComputationError):
+    """Newton's method on the periodicity condition did not converge (the message says how far)."""
+
+
+class PeriodMap(Protocol):
+    """The state after one period, and (if asked and available) the monodromy matrix.
+
+    ``period_map(x, p, jacobian) -> (x_T, Phi)``: ``x`` the state at the start of the period
+    (shape ``(N,)``), ``p`` the parameter (a float, or ``None`` for a fixed system),
+    ``jacobian`` whether ``Phi = d x_T / d x`` (``(N, N)``) is wanted; ``Phi`` is ``None`` when
+    not asked for or when the integrator gives no tangent.  A failed integration raises a
+    :class:`~fivebar.errors.FivebarError` (for example
+    :class:`~fivebar.numerics.newmark.NewtonConvergenceError`).
+
+    Optional attributes: ``periods`` (forcing periods per application, 1 if absent) and
+    ``concurrent`` (True if calls at two different ``p`` may run at once in two threads; then
+    :func:`fivebar.numerics.continuation.continuation` integrates its forward difference in ``p`` beside
+    the monodromy period, on a second core; absent: one call at a time).
+    """
+
+    def __call__(self, x: Array, p: float | None, jacobian: bool) -> tuple[Array, Array | None]: ...
+
+
+@dataclass(frozen=True)
+class PeriodicProblem:
+    """A periodically forced second-order system and how to integrate one period of it.
+
+    Attributes
+    ----------
+    system : SecondOrderSystem
+        ``M, C, K, F`` (and optionally ``nonlinear``), periodic in time with ``period``.
+    period : float
+        Period ``T`` of the forcing (s), > 0.
+    steps : int
+        Steps per period ``S`` (``dt = T / S``), >= 1.
+    t0 : float
+        Time at the start of the period (s).
+    step_data : PeriodicStepData, optional
+        Precomputed per-step matrices (the compiled loop serves them); default: sampled from
+        the system when the system is linear or time-varying, so that the compiled loop
+        serves; ``None`` keeps the system's callbacks.
+    scheme : Scheme, optional
+        Time integrator (default :class:`~fivebar.numerics.schemes.Newmark`, average acceleration).
+    options : dict
+        Further keyword arguments of :func:`~fivebar.numerics.newmark.integrate` (``rtol``,
+        ``max_iter``, ``newton`` ...).
+    """
+
+    system: SecondOrderSystem
+    period: float
+    steps: int
+    t0: float = 0.0
+    step_data: PeriodicStepData | None = None
+    scheme: Scheme | None = None
+    options: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.period, (int, float, np.floating)) and math.isfinite(self.period)
+                and self.period > 0):
+            raise InputError(f"period = {self.period!r} is not allowed: give a finite period > 0 (s)")
+        if isinstance(self.steps, bool) or int(self.steps) != self.steps or self.steps < 1:
+            raise InputError(f"steps = {self.steps!r} is not allowed: give an integer >= 1 (steps per period)")
+
+    @property
+    def dt(self) -> float:
+        """Time step ``T / S`` (s)."""
+        return float(self.period) / int(self.steps)
+
+
+def _consistent_directions(problem: PeriodicProblem, u0: Array) -> Array:
+    """d(u0, v0, a0) / d(u0, v0) with a0 from the equation of motion at t0 (as integrate starts)."""
+    if problem.step_data is not None:
+        sd = problem.step_data
+        k = round((problem.t0 - sd.t0) / sd.dt) % sd.steps
+        M, C, K = sd.M[k], sd.C[k], sd.K[k]
+    else:
+        M, C, K = (np.asarray(X, float) for X in problem.system.matrices(problem.t0))
+    nl = getattr(problem.system, "nonlinear", None)
+    if nl is not None:
+        K = K + np.asarray(nl(u0, problem.t0)[1], float)
+    n = u0.size
+    da = -np.linalg.solve(M, np.hstack([K, C]))
+    return np.vstack([np.eye(2 * n), da])
+
+
+def newmark_map(family: PeriodicProblem | Callable[[float | None], PeriodicProblem],
+                periods: int = 1) -> PeriodMap:
+    """A :class:`PeriodMap` from a second-order system (or a family of them in a parameter).
+
+    ``f = newmark_map(problem)`` (fixed system: ``p`` is ignored) or
+    ``f = newmark_map(lambda p: PeriodicProblem(...))`` (a family, for continuation; the last
+    problem built is kept, so repeated calls at one ``p`` build it once); then
+    ``x_T, Phi = f(x, p, jacobian=True)`` with ``x = (u0, v0)``.
+
+    Parameters
+    ----------
+    family : PeriodicProblem or callable ``p -> PeriodicProblem``
+        The system and how to integrate it (period, steps, scheme, integrator options).
+    periods : int
+        Forcing periods per map application (2 for the map of a period-2 orbit).
+
+    Returns
+    -------
+    PeriodMap
+        Its monodromy matrix is the product of the integrator's step tangents (the exact
+        derivative of the discrete map).
+    """
+    if isinstance(periods, bool) or int(periods) != periods or periods < 1:
+        raise InputError(f"periods = {periods!r} is not allowed: give an integer >= 1")
+    periods = int(periods)
+    last: dict[str, Any] = {}
+
+    def problem_at(p):
+        if isinstance(family, PeriodicProblem):
+            return family
+        if "p" not in last or last["p"] != p:
+            prob = family(p)
+            if not isinstance(prob, PeriodicProblem):
+                raise InputError(f"the family returned {type(prob).__name__}, expected a PeriodicProblem")
+            last["p"], last["problem"] = p, _with_step_data(prob)
+        return last["problem"]
+
+    def period_map(x, p=None, jacobian=False):
+        prob = problem_at(p)
+        x = np.asarray(x, float)
+        n = x.size // 2
+        scheme = GENERIC_SCHEME if prob.scheme is None else prob.scheme
+        kw = dict(prob.options)
+        kw.setdefault("store", "last")
+        if prob.step_data is not None:
+            kw["step_data"] = prob.step_data
+        if jacobian:
+            if scheme.is_newmark:
+                kw.update(sensitivity="uv")
+            else:
+                kw.update(sensitivity="uva", directions=_consistent_directions(prob, x[:n]))
+        res = integrate(prob.system, x[:n], x[n:], prob.t0, prob.dt, periods * prob.steps, scheme, **kw)
+        xT = np.concatenate([res.u[-1], res.v[-1]])
+        Phi = res.monodromy[: 2 * n] if jacobian else None
+        return xT, Phi
+
+    return period_map
+
+
+def _with_step_data(prob: PeriodicProblem) -> PeriodicProblem:
+    """Sample the per-step matrices of a linear time-varying system (the compiled loop serves it)."""
+    if prob.step_data is not None or getattr(prob.system, "nonlinear", None) is not None:
+        return prob
+    if getattr(prob.system, "time_invariant", False):
+        return prob
+    sd = PeriodicStepData.from_system(prob.system, prob.t0, prob.period, prob.steps)
+    return PeriodicProblem(prob.system, prob.period, prob.steps, prob.t0, sd, prob.scheme, prob.options)
+
+
+def iterate_map(period_map: PeriodMap, x0: ArrayLike, p: float | None = None,
+                periods: int = 1) -> Array:
+    """The states after 0, 1, ..., ``periods`` applications of the map: the Poincaré samples
+    of a march (shape ``(periods + 1, N)``)."""
+    x = np.asarray(x0, float)
+    out = [x]
+    for _ in range(int(periods)):
+        x = period_map(x, p, False)[0]
+        out.append(x)
+    return np.array(out)
+
+
+def monodromy(period_map: PeriodMap, x: ArrayLike, p: float | None = None,
+              scale: ArrayLike | None = None, step: float = 1e-5) -> tuple[Array, Array]:
+    """``(x_T, Phi)``: the map and its monodromy matrix at ``x``; the integrator's tangent where
+    the map provides it, else forward differences with steps ``step * scale`` (``scale``
+    defaults to ``max(|x_i|, |P_i(x)|, 1e-3 max_j max(|x_j|, |P_j(x)|))`` per component, or 1
+    where all vanish)."""
+    x = np.asarray(x, float)
+    xT, Phi = period_map(x, p, True)
+    if Phi is not None:
+        return np.asarray(xT, float), np.asarray(Phi, float)
+    s = _scale(np.maximum(np.abs(x), np.abs(xT)), scale)
+    Phi = np.empty((x.size, x.size))
+    for i in range(x.size):
+        h = step * s[i]
+        e = x.copy()
+        e[i] += h
+        Phi[:, i] = (period_map(e, p, False)[0] - xT) / h
+    return np.asarray(xT, float), Phi
+
+
+def _scale(x: Array, scale: ArrayLike | None) -> Array:
+    if scale is not None:
+        s = np.asarray(scale, float)
+        if s.shape != x.shape or not np.all(s > 0):
+            raise InputError(f"scale has shape {s.shape} or non-positive entries: give ({x.size},) positive values")
+        return s
+    big = float(np.abs(x).max()) if x.size else 0.0
+    return np.maximum(np.abs(x), 1e-3 * big) if big > 0 else np.ones_like(x)
+
+
+def floquet_multipliers(Phi: ArrayLike) -> NDArray[np.complex128]:
+    """Eigenvalues of a monodromy matrix, largest modulus first."""
+    mu = np.linalg.eigvals(np.asarray(Phi, float)).astype(complex)
+    return mu[np.lexsort((-mu.imag, -np.abs(mu)))]
+
+
+@dataclass
+class PeriodicOrbit:
+    """A fixed point of a period map and its Floquet multipliers.
+
+    Attributes
+    ----------
+    x : ndarray (N,)
+        State at the start of the period.
+    p : float or None
+        Parameter value.
+    monodromy : ndarray (N, N)
+        Monodromy matrix at ``x``.
+    residual : float
+        ``||P(x) - x|| / max(||x||, ||P(x)||)`` (scaled norm), the periodicity residual.
+    iterations : int
+        Newton iterations of :func:`shoot`.
+    periods : int
+        Map applications spent (finite differences included).
+    """
+
+    x: Array
+    p: float | None
+    monodromy: Array
+    residual: float
+    iterations: int = 0
+    periods: int = 0
+
+    @property
+    def multipliers(self) -> NDArray[np.complex128]:
+        """Floquet multipliers, largest modulus first."""
+        return floquet_multipliers(self.monodromy)
+
+    @property
+    def spectral_radius(self) -> float:
+        """Largest modulus of the multipliers."""
+        return float(np.abs(self.multipliers).max())
+
+    @property
+    def stable(self) -> bool:
+        """True if every multiplier lies strictly inside the unit circle."""
+        return self.spectral_radius < 1.0
+
+
+def _one_blas_thread(func: Callable[..., Any]) -> Callable[..., Any]:
+    """Run ``func`` with the BLAS thread pools limited to one thread (threadpoolctl).
+
+    Threaded BLAS rounds differently with the number of threads; with one thread the results
+    of shooting and continuation do not depend on ``OPENBLAS_NUM_THREADS`` or the core count
+    (and the small dense matrices of a period map are faster on one thread)."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with _blas_threads(1):
+            return func(*args, **kwargs)
+
+    return wrapper
+
+
+@_one_blas_thread
+def shoot(period_map: PeriodMap, x0: ArrayLike, p: float | None = None, tol: float = 1e-10,
+          max_iter: int = 30, scale: ArrayLike | None = None) -> PeriodicOrbit:
+    r"""Newton's method on :math:`\mathbf P(\mathbf x; p) - \mathbf x = \mathbf 0`.
+
+    Each iteration takes the monodromy matrix at the present ``x`` (:func:`monodromy`) and
+    solves :math:`(\boldsymbol\Phi - \mathbf I)\,\delta\mathbf x = -\mathbf G` in the least
+    squares sense in the scaled variables ``x / scale`` (singular values below 1e-13 of the
+    largest dropped: a multiplier at 1 leaves the orbit undetermined along its eigenvector,
+    see :mod:`fivebar.numerics.continuation`); a step that does not reduce the residual is halved, up to
+    10 times.
+
+    Parameters
+    ----------
+    period_map : PeriodMap
+    x0 : array_like (N,)
+        Start.
+    p : float, optional
+        Parameter passed to the map.
+    tol : float
+        Converged when the scaled residual ``||G|| / max(||x||, ||P(x)||, tiny)`` is at most
+        ``tol`` (the norm of ``x / scale``); ``scale`` defaults to ones.
+    max_iter : int
+        Newton iterations at most.
+
+    Returns
+    -------
+    PeriodicOrbit
+        With the monodromy matrix at the converged ``x`` (one more map application with the
+        tangent when the last Newton step moved ``x``).
+
+    Raises
+    ------
+    ShootingError
+        No convergence in ``max_iter`` iterations, or no halved step reduces the residual.
+    """
+    if not tol > 0:
+        raise InputError(f"tol = {tol!r} is not allowed: give a positive tolerance")
+    x = np.array(x0, dtype=float)
+    D = np.ones_like(x) if scale is None else _scale(x, scale)
+    count = [0]
+
+    def counted(x, p, jacobian):
+        count[0] += 1
+        return period_map(x, p, jacobian)
+
+    def resid(x, xT):
+        g = (xT - x) / D
+        ref = max(float(np.linalg.norm(x / D)), float(np.linalg.norm(xT / D)), 1e-300)
+        return g, float(np.linalg.norm(g)), float(np.linalg.norm(g)) / ref
+
+    xT, Phi = monodromy(counted, x, p, scale)
+    g, a, r = resid(x, xT)
+    for it in range(max_iter + 1):
+        if r <= tol:
+            return PeriodicOrbit(x, p, Phi, r, it, count[0])
+        if it == max_iter:
+            break
+        J = (Phi * (1.0 / D)[:, None]) * D[None, :] - np.eye(x.size)  # scaled Phi - I
+        y = D * _lstsq(J, -g)
+        lam = 1.0
+        for _ in range(11):
+            try:
+                xt = x + lam * y
+                xTt = counted(xt, p, False)[0]
+                gt, at, rt = resid(xt, xTt)
+                if np.isfinite(at) and (at < a or rt <= tol):
+                    break
+            except NewtonConvergenceError:
+                pass
+            lam *= 0.5
+        else:
+            raise ShootingError(
+                f"shooting: no step along the Newton direction (halved 10 times) reduces the "
+                f"periodicity residual {r:.3e} in iteration {it + 1} (p = {p!r})")
+        x = xt
+        if rt <= tol:
+            _, Phi = monodromy(counted, x, p, scale)
+            return PeriodicOrbit(x, p, Phi, rt, it + 1, count[0])
+        xT, Phi = monodromy(counted, x, p, scale)
+        g, a, r = resid(x, xT)
+    raise ShootingError(
+        f"shooting did not converge in {max_iter} Newton iterations: scaled periodicity residual "
+        f"{r:.3e} (tolerance {tol:.1e}) at p = {p!r}")
+
+
+def _lstsq(J: Array, b: Array, rcond: float = 1e-13) -> Array:
+    U, s, Vt = np.linalg.svd(J)
+    k = int(np.count_nonzero(s > rcond * s[0])) if s.size and s[0] > 0 else 0
+    return Vt[:k].T @ ((U[:, :k].T @ b) / s[:k])
