@@ -38,6 +38,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import math
 import tomllib
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
@@ -597,7 +598,9 @@ def unit_sample(inputs: Sequence[UncertainInput], n: int, seed: int = 0) -> NDAr
     from scipy.stats import qmc
 
     n = number("n", n, integer=True, low=1, error=SensitivityError)
-    return qmc.Sobol(len(inputs), scramble=True, seed=_seeds(seed, 3)[2]).random(n)
+    with warnings.catch_warnings():  # any n is allowed: a power of 2 balances best
+        warnings.simplefilter("ignore", UserWarning)
+        return qmc.Sobol(len(inputs), scramble=True, seed=_seeds(seed, 3)[2]).random(n)
 
 
 def sobol_indices(func: Callable[[NDArray], ArrayLike], inputs: Sequence[UncertainInput], *, width: float = 0.05,
