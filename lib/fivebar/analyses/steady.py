@@ -47,7 +47,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from ..cache import STORE
-from ..errors import FivebarError, array, number
+from ..errors import FivebarError, InputError, array, number
 from ..model.dynamics import LinkageDynamics, linkage_dynamics
 from ..numerics.eigen import frozen_modes
 from ..numerics.newmark import NewtonConvergenceError, integrate
