@@ -30,7 +30,7 @@ _FACADE = {
     "Params": "params", "load_params": "params",
     "campbell_diagram": "resonance", "resonance_table": "resonance",
     "Response": "response", "quasi_static": "response", "radau": "response", "transient": "response",
-    "SteadyState": "steady", "SteadyStateError": "steady", "ValidityWarning": "steady", "steady_state": "steady",
+    "SteadyState": "steady", "SteadyStateError": "steady", "ValidityWarning": "errors", "steady_state": "steady",
     "SweepInterrupted": "sweep", "speed_sweep": "sweep",
 }
 

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import FivebarError, InputError
+from .errors import FivebarError, InputError, checked
 from .linkage import Linkage
 from .params import Params
 
@@ -180,6 +180,7 @@ def _close(lk: Linkage, theta: list[NDArray], mode: int) -> tuple[dict[str, NDAr
     return P, {"unknown": (bi, bj)}
 
 
+@checked
 def positions(params: Params, *theta: ArrayLike, mode: int | None = None) -> dict[str, NDArray]:
     """Joint coordinates for given crank angles.
 
@@ -214,6 +215,7 @@ def positions(params: Params, *theta: ArrayLike, mode: int | None = None) -> dic
     return _close(lk, th, mode)[0]
 
 
+@checked
 def link_angles(params: Params, *theta: ArrayLike, mode: int | None = None) -> dict[str, NDArray]:
     """Angles (rad) of the links to the x axis (each from its start to its end joint), for
     crank angles as in :func:`positions`."""

@@ -278,7 +278,7 @@ def speed_sweep(
     pandas.DataFrame
         One row per speed, in the order given; columns of :func:`sweep_point`, with the
         validity of each row (``valid`` False where the stress is above yield or the deflection
-        past the small-deflection range; one :class:`fivebar.steady.ValidityWarning` then says
+        past the small-deflection range; one :class:`fivebar.errors.ValidityWarning` then says
         how many rows).
     """
     try:
