@@ -55,7 +55,7 @@ from .kinematics import crank_laws, rigid_state
 from .newmark import _blas_threads
 from .systems import PeriodicStepData
 from .nonlinear import ElementGeometry, NonlinearForce
-from .params import Params
+from .params import Params, _unresolved_model
 from .setup import Setup, as_setup
 
 __all__ = ["LinkageDynamics", "modal_damping"]
@@ -242,7 +242,10 @@ class LinkageDynamics:
             C = np.ascontiguousarray(beta * Kb)
             K = np.ascontiguousarray(K + beta * Yb)
         else:
-            C = modal_damping(M, K, self.params.damping_ratio)
+            try:
+                C = modal_damping(M, K, self.params.damping_ratio)
+            except ComputationError as exc:
+                raise _unresolved_model(self.params, exc) from None
         return M, C, K, F
 
     def _bending(self, laws, state) -> tuple[NDArray, NDArray]:
@@ -286,7 +289,10 @@ class LinkageDynamics:
         """
         p, k = self.params, self.keep
         M, K = self.model.matrices(p.theta1_0, p.theta4_0)
-        w2 = frozen_modes(M[np.ix_(k, k)], K[np.ix_(k, k)])[0]
+        try:
+            w2 = frozen_modes(M[np.ix_(k, k)], K[np.ix_(k, k)])[0]
+        except ComputationError as exc:
+            raise _unresolved_model(p, exc) from None
         return 2.0 * p.damping_ratio / float(np.sqrt(np.min(w2)))
 
     # --- SecondOrderSystem protocol ---------------------------------------------------------------
