@@ -229,6 +229,10 @@ RANGES: dict[str, dict[str, Any]] = {
     "prominence": dict(low=0.0),
 }
 
+#: Array arguments whose entries may be complex (the slow flow's complex amplitudes); every
+#: other array argument of a checked entry point holds real numbers.
+COMPLEX = frozenset({"guess"})
+
 _NUMBER_TYPES = {"float", "int"}
 _ARRAY_TYPES = {"ArrayLike", "NDArray", "Array", "NDArray[np.float64]", "np.ndarray"}
 
@@ -278,6 +282,7 @@ def _str_rule(label: str, value: Any) -> str:
 
 def _array_rule(name: str):
     rng = _range(name)
+    kinds = "iufc" if name in COMPLEX else "iuf"
 
     def rule(label: str, value: Any) -> Any:
         if _has_bool(value):
@@ -287,8 +292,9 @@ def _array_rule(name: str):
             a = np.asarray(value)
         except (TypeError, ValueError):
             a = np.asarray([None], dtype=object)
-        if a.dtype.kind not in "iufc":
-            raise InputError(f"{label} = {_short(value)} is not allowed: give a number or an array of numbers")
+        if a.dtype.kind not in kinds:
+            raise InputError(f"{label} = {_short(value)} is not allowed: give a {'number' if kinds == 'iufc' else 'real number'} "
+                             f"or an array of {'numbers' if kinds == 'iufc' else 'real numbers'}")
         if not np.all(np.isfinite(a)):
             raise InputError(f"{label} = {_short(value)} is not allowed: every entry must be finite "
                              f"({int(a.size - np.isfinite(a).sum())} are nan or inf)")
@@ -341,8 +347,9 @@ def _rule(name: str, annotation: Any, namespace: dict):
     if annotation is inspect.Parameter.empty:
         return None, False
     text = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", str(annotation))
-    parts = [p for p in _split_union(text) if p not in ("None", "NoneType")]
-    none_ok = len(parts) < len(_split_union(text))
+    members = [p.strip("'\"") for p in _split_union(text)]  # (a quoted forward reference too)
+    parts = [p for p in members if p not in ("None", "NoneType")]
+    none_ok = len(parts) < len(members)
     if not parts:
         return None, True
     if set(parts) <= _NUMBER_TYPES:
@@ -389,7 +396,7 @@ def checked(fn: Callable) -> Callable:
     ``@checked`` over ``def f(x: float, n: int = 3, flag: bool = False, a: ArrayLike = None,
     s: str = "x", setup: Setup | Params = ...)``.  By annotation: ``float``/``int`` a finite
     number (not a bool, a string or a complex number; an ``int`` integral), ``bool`` True or
-    False (not a string), ``str`` a string, ``ArrayLike`` numbers (no bool, no NaN or inf),
+    False (not a string), ``str`` a string, ``ArrayLike`` real numbers (complex ones for the names in :data:`COMPLEX`; no bool, no NaN or inf),
     ``Literal[...]`` one of its values, a class of fivebar an instance of it, a protocol of
     fivebar (a period map) a callable; ``| None`` also None.  By name: the ranges of
     :data:`RANGES` (``tol`` > 0, ``max_points`` an integer >= 2, ...) and ``*_rpm`` > 0.

@@ -114,7 +114,12 @@ def _split(lk: Linkage, args: tuple, per: int, mode: int | None, what: str) -> t
         )
     mode = 1 if mode is None else mode
     _check_mode(mode)
-    return list(np.broadcast_arrays(*(np.asarray(x, float) for x in args))), mode
+    arrays = [np.asarray(x, float) for x in args]
+    try:
+        return list(np.broadcast_arrays(*arrays)), mode
+    except ValueError:
+        raise InputError(f"{what} of shapes {', '.join(str(a.shape) for a in arrays)} are not allowed: they must "
+                         "broadcast together (one shape, or scalars)") from None
 
 
 def _where(lk: Linkage, theta: list[NDArray], i: int) -> str:
