@@ -30,9 +30,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ComputationError", "FivebarError", "InputError", "InputTypeError", "ParameterError", "ResourceError",
-           "ValidityWarning", "array", "available_memory", "checked", "checker", "choice", "flag", "memory",
-           "number", "plain"]
+__all__ = ["COMPLEX", "ComputationError", "FivebarError", "InputError", "InputTypeError", "ParameterError", "RANGES",
+           "ResourceError", "ValidityWarning", "array", "available_memory", "checked", "checker", "choice", "flag",
+           "memory", "number", "plain"]
 
 
 class FivebarError(Exception):
