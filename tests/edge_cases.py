@@ -193,6 +193,10 @@ CASES = [
     bad("positions(None, 0, 0)", lambda: positions(None, 0, 0), "params", "None"),
     bad("positions(p, True, 0)", lambda: positions(P, True, 0), "theta", "True"),
     bad("positions(p, 0, 0, mode=True)", lambda: positions(P, 0, 0, mode=True), "mode", "True"),
+    # (found by the property-based tests, tests/test_properties.py)
+    bad("positions(p, 0, 0j) (a complex angle)", lambda: positions(P, 0.0, 0j), "theta", "0j"),
+    bad("positions(p, [0.1, 0.2], [0.1, 0.2, 0.3]) (shapes that do not broadcast)",
+        lambda: positions(P, [0.1, 0.2], [0.1, 0.2, 0.3]), "(2,)", "(3,)", "broadcast"),
     bad("natural_frequencies(p, nan, 0)", lambda: fb.natural_frequencies(P, NAN, 0), "theta", "nan"),
     bad("modes(p, 0, 0, n_modes=True)", lambda: modes(P, 0, 0, n_modes=True), "n_modes", "True"),
     bad("frequencies_along_cycle(p, [nan])", lambda: frequencies_along_cycle(P, [NAN]), "crank_angles", "nan"),

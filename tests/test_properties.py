@@ -218,6 +218,7 @@ angles = st.one_of(st.floats(-10, 10), numpy_numbers, st.lists(st.floats(-10, 10
 
 
 @given(angles, angles, st.sampled_from([None, 1, -1]))
+@example([0.1, 0.2], [0.1, 0.2, 0.3], None)  # found: numpy's ValueError (shapes that do not broadcast)
 def test_positions_of_random_sound_angles_close_the_loop_or_raise_a_geometry_error(t1, t4, mode):
     _positions(t1, t4, mode)
 
@@ -228,6 +229,7 @@ def test_positions_of_random_sound_angles_close_the_loop_or_raise_a_geometry_err
 @example("x", 0.0, None)  # numpy's ValueError before
 @example(True, 0.0, None)
 @example(0.1, 0.2, True)
+@example(0.0, 0j, None)  # found: a complex angle reached numpy's float()
 def test_positions_of_random_angles_close_the_loop_or_raise_a_fivebar_error(t1, t4, mode):
     _positions(t1, t4, mode)
 
