@@ -156,6 +156,9 @@ CASES = [
     good("Params.replace(width=0.03)", lambda: P.replace(width=0.03)),
     good("Params.replace(thickness=np.float64(0.002))", lambda: P.replace(thickness=np.float64(0.002))),
     good("linkage_period_map(setup, 'L2')", lambda: linkage_period_map(L, "L2")),
+    good("four-bar with damping_model = 'stiffness' (found while checking the four-bar)", lambda: fb.Setup(
+        fb.load_params([fb.DEFAULT_PARAMS_PATH, fb.FOURBAR_PARAMS_PATH]).replace(damping_model="stiffness"),
+        steps_per_period=100, nonlinear=False).dynamics().step_data),
     good("follow(setup, 0.41, parameter='L2')", lambda: follow(L, 0.41, parameter="L2", points=2)),
     # --- unclear before: the argument the user gave, its value, what is allowed -----------------
     bad("Setup(steps_per_period=0)", lambda: fb.Setup(P, steps_per_period=0), "steps_per_period", "0", "21"),

@@ -283,12 +283,13 @@ class LinkageDynamics:
     def stiffness_damping_time(self) -> float:
         """The damping time beta (s) of the stiffness-proportional damping, 2 zeta / omega_1.
 
-        omega_1 is the lowest frozen mode at the initial crank angles, as in the definition of
-        the multibody model's Kelvin-Voigt damping time
+        omega_1 is the lowest frozen mode at the initial crank angles (those of the description's
+        drive laws at t = 0: theta1_0 and theta4_0 of the five-bar), as in the definition of the
+        multibody model's Kelvin-Voigt damping time
         (:func:`fivebar.multibody.multibody_steady_state`).
         """
         p, k = self.params, self.keep
-        M, K = self.model.matrices(p.theta1_0, p.theta4_0)
+        M, K = self.model.matrices(*(float(a[0]) for a in self.crank_angles(np.zeros(1))))
         try:
             w2 = frozen_modes(M[np.ix_(k, k)], K[np.ix_(k, k)])[0]
         except ComputationError as exc:
