@@ -814,6 +814,7 @@ def _state_scale(x: NDArray, scale: ArrayLike | None) -> NDArray:
         raise InputError(f"scale has shape {D.shape} or non-positive entries: give ({x.size},) positive values")
     return D
 
+
 @checked
 def switch_period_doubling(
     period_map: PeriodMap,
