@@ -347,7 +347,7 @@ def test_a_warm_start_must_come_from_the_same_problem_nearby():
     base = steady_state(s.replace(crank_speed_rpm=300.0), tol=0.01)
     for bad, kw in ((base, dict(tol=0.02)), (base, dict(tol=None)), (base, dict(method="march", tol=0.01)),
                     ("x", dict(tol=0.01)), (steady_state(s.replace(crank_speed_rpm=300.0)), dict(tol=0.01))):
-        with pytest.raises(InputError, match="start"):
+        with pytest.raises(fivebar.FivebarError, match="start"):
             steady_state(s.replace(crank_speed_rpm=310.0), start=bad, **kw)
     with pytest.raises(InputError, match="more than 25 %"):
         steady_state(s.replace(crank_speed_rpm=400.0), tol=0.01, start=base)

@@ -124,6 +124,52 @@ def test_a_signal_stops_a_two_process_sweep_and_keeps_the_finished_points(sig, t
 
 
 
+UNCAUGHT = SWEEP.replace("""    try:
+        sw.speed_sweep(setup, speeds, executor=ex, progress=False)
+        print(json.dumps({"finished": True}), flush=True)
+    except sw.SweepInterrupted as exc:""", """    sw.speed_sweep(setup, speeds, executor=ex, progress=False)
+    print(json.dumps({"finished": True}), flush=True)
+    if False:""").replace("initializer=_count_points", "initializer=_quiet_and_counted").replace(
+    "with ProcessPoolExecutor(", textwrap.dedent("""
+    def _quiet_and_counted():  # the workers ignore Ctrl-C, as fivebar.analyses.sweep.ignore_sigint makes them
+        sw.ignore_sigint()
+        _count_points()
+
+    """) + "with ProcessPoolExecutor(")
+
+
+def test_ctrl_c_on_a_parallel_sweep_ends_with_its_one_line(tmp_path):
+    """Issue 36: Ctrl-C in a terminal (SIGINT to the whole process group) on a script whose
+    2-process sweep is not caught: what the script leaves on stderr is the one report of
+    SweepInterrupted (its traceback, ending in the line that says how many speeds finished), not
+    the pool's InvalidStateError traceback from its manager thread, nor a worker's.  The workers
+    ignore Ctrl-C (fivebar.analyses.sweep.ignore_sigint, the sweep's advice): the parent stops them.
+    (Planted: the futures cancelled from outside before the workers are terminated -> 'Exception
+    in thread ... InvalidStateError: CANCELLED' in 3 of 3 runs.)"""
+    assert UNCAUGHT != SWEEP
+    log = tmp_path / "points.log"
+    proc = subprocess.Popen([sys.executable, "-c", UNCAUGHT, LIB, str(log)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    done = 0
+    while done < 2:
+        line = proc.stdout.readline()
+        if not line:
+            pytest.fail(f"the sweep ended before the signal: {proc.stderr.read()[-2000:]}")
+        done += line.strip() == "done"
+    os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C: every process of the group
+    try:
+        out, err = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        pytest.fail("the sweep did not stop within 120 s of Ctrl-C")
+    assert "finished" not in out
+    assert "InvalidStateError" not in err and "Exception in thread" not in err, err
+    assert err.count("Traceback") == 1, err  # the SweepInterrupted's, no worker's
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("fivebar.analyses.sweep.SweepInterrupted: speed sweep stopped by SIGINT:"), err
+    assert _group_is_gone(proc.pid), "a worker process survived"
+
+
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_a_signal_while_a_point_is_kept_waits_until_it_is_in_the_rows_and_the_store(sig, monkeypatch):
     """The signal that failed CI at stop 27 arrived between a point's row and its entry in the

@@ -139,6 +139,61 @@ def test_a_read_only_cache_is_used_as_it_is(tiny, tmp_path):
     assert sorted(os.listdir(tiny / "__pycache__")) == before
 
 
+@pytest.mark.parametrize("how", ["garbled", "stale"])
+def test_a_read_only_cache_that_cannot_serve_is_healed_once_into_a_temporary_location(tiny, tmp_path, how):
+    """Issue 36: a read-only cache whose entry is unreadable (garbled) or out of date (the source
+    changed after it was written) cannot be healed in place.  The first process compiles once,
+    says so once (the remedy named) and keeps the healed copy in a temporary location of the
+    user's own; the next process loads that copy (a cache hit, no compilation, no word), and the
+    read-only cache is left as it is.  (Planted: with the healed copy not read, the second run
+    compiles again, misses == 1; with the report per function, not per directory, and a second
+    damaged function, two warnings.)"""
+    env = _env(tmp_path)
+    env["TMPDIR"] = str(tmp_path / "tmp")  # the healed copy's location: the test's own
+    (tmp_path / "tmp").mkdir()
+    assert _run(tiny, env)["misses"] == 1
+    cache = tiny / "__pycache__"
+    if how == "garbled":
+        for f in glob.glob(str(cache / "tiny.*.nbi")):  # both functions: still one warning
+            _damage(f, "garbled")
+    else:
+        with open(tiny / "tiny.py", "a") as fh:  # the source changed (numba stamps its hash)
+            fh.write("# changed\n")
+    before = {p: Path(p).read_bytes() for p in glob.glob(str(cache / "*"))}
+    prefix = _read_only_prefix(tiny)
+    if prefix is None:
+        pytest.skip("cannot make a directory read-only here (root without mount namespaces)")
+    (tmp_path / "user-cache").mkdir(exist_ok=True)
+    Path(tmp_path / "user-cache").chmod(0o555) if os.geteuid() != 0 else None
+    first = _run(tiny, env, prefix)
+    assert first["value"] == 4.0 and first["misses"] == 1, first
+    said = [m for c, m in first["warnings"] if c == "CacheHealedWarning"]
+    assert len(said) == 1 and len(first["warnings"]) == 1, first["warnings"]
+    assert str(cache) in said[0] and "read-only" in said[0] and "NUMBA_CACHE_DIR" in said[0]
+    healed = glob.glob(str(tmp_path / "tmp" / "fivebar-numba-*" / "*"))
+    assert len(healed) == 1 and healed[0] in said[0] and glob.glob(healed[0] + "/tiny.f-*.nbi")
+    assert os.stat(Path(healed[0]).parent).st_mode & 0o077 == 0  # the user's own, private
+    second = _run(tiny, env, prefix)
+    assert second["value"] == 4.0 and second["hits"] >= 1 and second["misses"] == 0, second
+    assert second["warnings"] == []
+    assert {p: Path(p).read_bytes() for p in glob.glob(str(cache / "*"))} == before
+
+
+def test_a_healed_copy_in_a_directory_of_another_user_is_not_read(tmp_path, monkeypatch):
+    """The healed copy's location is refused unless it is the user's own and private: another
+    user's directory in /tmp could hand this process pickles to load."""
+    from fivebar.numerics._jitcache import healed_cache_dir
+
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", None)
+    assert healed_cache_dir("/some/cache") is not None
+    root = next(tmp_path.glob("fivebar-numba-*"))
+    root.chmod(0o777)
+    assert healed_cache_dir("/some/cache") is None
+
+
 def test_with_nowhere_to_write_the_temporary_cache_is_removed_at_exit(tiny, tmp_path):
     env = _env(tmp_path)
     env["XDG_CACHE_HOME"] = "/dev/null/cannot-be-a-directory"

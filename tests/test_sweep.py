@@ -108,5 +108,8 @@ def test_sweep_peaks():
     ],
 )
 def test_bad_sweep_input(params, kwargs):
-    with pytest.raises(SweepError):
+    # SweepError, or the InputError of the library's validation layer (fivebar.errors.checked:
+    # a speed must be > 0): both are FivebarErrors and ValueErrors
+    with pytest.raises((SweepError, fivebar.errors.InputError)) as info:
         speed_sweep(params, progress=False, **kwargs)
+    assert isinstance(info.value, ValueError)

@@ -36,7 +36,7 @@ _FACADE = {
     "campbell_diagram": "book.plotting", "resonance_table": "analyses.resonance",
     "Response": "analyses.response", "quasi_static": "analyses.response", "radau": "analyses.response",
     "transient": "analyses.response",
-    "SteadyState": "analyses.steady", "SteadyStateError": "analyses.steady", "ValidityWarning": "analyses.steady",
+    "SteadyState": "analyses.steady", "SteadyStateError": "analyses.steady", "ValidityWarning": "errors",
     "steady_state": "analyses.branches",
     "SweepInterrupted": "analyses.sweep", "speed_sweep": "analyses.sweep",
 }

@@ -8,20 +8,31 @@ This module imports nothing of the linkage: the generic solvers (``schemes``, ``
 derive their errors from it too.  It also holds the one validation helper of every argument
 (:func:`number`, with :func:`flag`, :func:`choice`, :func:`array` and the memory check
 :func:`memory`), so that NumPy scalars are accepted everywhere a number is and every message
-names the argument, the value and what is allowed.
+names the argument, the value and what is allowed; and the one validation layer of the public
+entry points, :func:`checked` (which :func:`fivebar.description.setup.analysis` applies to every analysis):
+it checks every argument by its annotation and name, so that a new argument gets the same
+checks without new code.
+
+:class:`ValidityWarning` is here too: a result (or a parameter set) outside the model's range
+of validity, from any layer.
 """
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 import os
+import typing
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ComputationError", "FivebarError", "InputError", "InputTypeError", "ParameterError", "ResourceError",
-           "array", "available_memory", "choice", "flag", "memory", "number", "plain"]
+__all__ = ["COMPLEX", "ComputationError", "FivebarError", "InputError", "InputTypeError", "ParameterError", "RANGES",
+           "ResourceError", "ValidityWarning", "array", "available_memory", "checked", "checker", "choice", "flag",
+           "memory", "number", "plain"]
 
 
 class FivebarError(Exception):
@@ -46,6 +57,13 @@ class ComputationError(FivebarError, RuntimeError):
 
 class ResourceError(FivebarError, MemoryError):
     """A computation would need more memory than the machine has (found before allocating)."""
+
+
+class ValidityWarning(UserWarning):
+    """A result lies outside the model's range of validity (stress above yield, deflection past
+    the small-deflection range, a step too coarse for the accuracy it reports), or a parameter
+    set whose numbers the model cannot resolve (a crank angle so large that a double does not
+    resolve its change over a step)."""
 
 
 # --- validation: one helper for every argument of the library --------------------------------
@@ -191,3 +209,265 @@ def memory(nbytes: float, what: str, remedy: str) -> None:
     if nbytes > avail:
         raise ResourceError(f"{what} need about {nbytes / 2**30:.3g} GiB, more than the "
                             f"{avail / 2**30:.3g} GiB of memory available: {remedy}")
+
+
+# --- the validation layer of the public entry points -----------------------------------------
+#: Ranges of the arguments by name, the same wherever the name is an argument of a checked
+#: entry point (:func:`checked`): keyword arguments of :func:`number`.  A name ending in
+#: ``_rpm`` is a speed, > 0.  A function's own narrower range stays in the function.
+RANGES: dict[str, dict[str, Any]] = {
+    **{name: dict(low=0.0, low_open=True) for name in (
+        "tol", "rtol", "atol", "ds", "ds_min", "ds_max", "p_scale", "locate_tol", "critical_tol", "dp",
+        "state_weight", "window", "interval_ms")},
+    **{name: dict(integer=True, low=1) for name in (
+        "max_iter", "max_newton", "max_periods", "periods", "n_modes", "samples", "dpi")},
+    "max_points": dict(integer=True, low=2),
+    "points": dict(integer=True, low=2),
+    "frames": dict(integer=True, low=2),
+    "transient": dict(integer=True, low=0),
+    "detuning": dict(low=0.0),
+    "prominence": dict(low=0.0),
+}
+
+#: Array arguments whose entries may be complex (the slow flow's complex amplitudes); every
+#: other array argument of a checked entry point holds real numbers.
+COMPLEX = frozenset({"guess"})
+
+_NUMBER_TYPES = {"float", "int"}
+_ARRAY_TYPES = {"ArrayLike", "NDArray", "Array", "NDArray[np.float64]", "np.ndarray"}
+
+
+def _range(name: str) -> dict[str, Any]:
+    if name in RANGES:
+        return RANGES[name]
+    if name.endswith("_rpm"):
+        return dict(low=0.0, low_open=True, unit="r/min")
+    return {}
+
+
+def _has_bool(value: Any) -> bool:
+    """True if ``value`` is a boolean, or a list, tuple or array that holds one."""
+    if isinstance(value, (bool, np.bool_)):
+        return True
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind == "b" or (value.dtype.kind == "O" and any(_has_bool(v) for v in value.flat))
+    if isinstance(value, (list, tuple)):
+        return any(_has_bool(v) for v in value)
+    return False
+
+
+def _number_rule(name: str, integer: bool):
+    rng = dict(_range(name))
+    rng["integer"] = integer or rng.get("integer", False)
+
+    def rule(label: str, value: Any) -> Any:
+        x = number(label, value, **rng)
+        # a Python number is passed on as given (an int stays an int); a NumPy number or a
+        # size-one array as the Python number
+        if type(value) in (int, float) and not (rng["integer"] and isinstance(value, float)):
+            return value
+        return x
+    return rule
+
+
+def _flag_rule(label: str, value: Any) -> bool:
+    return flag(label, value)
+
+
+def _str_rule(label: str, value: Any) -> str:
+    if not isinstance(value, str):
+        raise InputTypeError(f"{label} = {_short(value)} ({type(value).__name__}) is not allowed: give a string")
+    return value
+
+
+def _array_rule(name: str):
+    rng = _range(name)
+    kinds = "iufc" if name in COMPLEX else "iuf"
+
+    def rule(label: str, value: Any) -> Any:
+        if _has_bool(value):
+            raise InputError(f"{label} = {_short(value)} is not allowed: give numbers (True and False are not "
+                             "numbers here)")
+        try:
+            a = np.asarray(value)
+        except (TypeError, ValueError):
+            a = np.asarray([None], dtype=object)
+        if a.dtype.kind not in kinds:
+            raise InputError(f"{label} = {_short(value)} is not allowed: give a {'number' if kinds == 'iufc' else 'real number'} "
+                             f"or an array of {'numbers' if kinds == 'iufc' else 'real numbers'}")
+        if not np.all(np.isfinite(a)):
+            raise InputError(f"{label} = {_short(value)} is not allowed: every entry must be finite "
+                             f"({int(a.size - np.isfinite(a).sum())} are nan or inf)")
+        if rng.get("low") is not None and a.dtype.kind != "c" and a.size and (
+                a.min() <= rng["low"] if rng.get("low_open") else a.min() < rng["low"]):
+            raise InputError(f"{label} = {_short(value)} is not allowed: every entry must be "
+                             f"{'>' if rng.get('low_open') else '>='} {_text(rng['low'])}"
+                             + (f" ({rng['unit']})" if rng.get("unit") else ""))
+        return plain(value) if a.ndim == 0 else value
+    return rule
+
+
+def _class_rule(classes: tuple[type, ...]):
+    names = " or ".join(f"a {c.__module__.split('.')[0]}.{c.__name__}" for c in classes)
+
+    def rule(label: str, value: Any) -> Any:
+        if not isinstance(value, classes):
+            raise InputTypeError(f"{label} = {_short(value)} ({type(value).__name__}) is not allowed: give {names}")
+        return value
+    return rule
+
+
+def _callable_rule(protocol: type):
+    def rule(label: str, value: Any) -> Any:
+        if not callable(value):
+            raise InputTypeError(f"{label} = {_short(value)} ({type(value).__name__}) is not allowed: give a "
+                                 f"{protocol.__name__}, a callable ({protocol.__doc__.strip().splitlines()[0]})")
+        return value
+    return rule
+
+
+def _split_union(text: str) -> list[str]:
+    """The members of an annotation ``A | B[C, D] | None`` (top-level ``|`` only)."""
+    parts, depth, cur = [], 0, ""
+    for ch in text:
+        depth += ch in "[("
+        depth -= ch in "])"
+        if ch == "|" and depth == 0:
+            parts.append(cur.strip())
+            cur = ""
+        else:
+            cur += ch
+    parts.append(cur.strip())
+    return parts
+
+
+def _rule(name: str, annotation: Any, namespace: dict):
+    """The check of an argument from its annotation (a string: ``from __future__ import
+    annotations``) and name, or None (an argument the layer does not check)."""
+    if annotation is inspect.Parameter.empty:
+        return None, False
+    text = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", str(annotation))
+    members = [p.strip("'\"") for p in _split_union(text)]  # (a quoted forward reference too)
+    parts = [p for p in members if p not in ("None", "NoneType")]
+    none_ok = len(parts) < len(members)
+    if not parts:
+        return None, True
+    if set(parts) <= _NUMBER_TYPES:
+        return _number_rule(name, parts == ["int"]), none_ok
+    if parts == ["bool"]:
+        return _flag_rule, none_ok
+    if parts == ["str"]:
+        return _str_rule, none_ok
+    if set(parts) <= _ARRAY_TYPES:
+        return _array_rule(name), none_ok
+    if len(parts) == 1 and parts[0].startswith(("Literal[", "typing.Literal[")):
+        try:
+            allowed = typing.get_args(eval(parts[0], namespace))  # noqa: S307 - the function's own annotation
+        except Exception:  # noqa: BLE001 - an annotation the layer cannot read is not checked
+            return None, none_ok
+        return (lambda label, value: choice(label, value, allowed)), none_ok
+    classes = []
+    for part in parts:
+        try:
+            obj = eval(part, namespace)  # noqa: S307 - the function's own annotation
+        except Exception:  # noqa: BLE001
+            return None, none_ok
+        if not isinstance(obj, type) or not obj.__module__.startswith("fivebar"):
+            return None, none_ok  # a type of another package: duck typing is its own business
+        if getattr(obj, "_is_protocol", False):
+            if len(parts) == 1 and callable(getattr(obj, "__call__", None)):
+                return _callable_rule(obj), none_ok
+            return None, none_ok
+        classes.append(obj)
+    return _class_rule(tuple(classes)), none_ok
+
+
+def _close_names(word: str, names: list[str]) -> str:
+    import difflib
+
+    near = difflib.get_close_matches(word, names, n=1)
+    return f" (did you mean {near[0]!r}?)" if near else ""
+
+
+def checked(fn: Callable) -> Callable:
+    """The validation layer of a public entry point: check each argument from its annotation
+    and name before ``fn`` runs, so that a new argument gets the same checks without new code.
+
+    ``@checked`` over ``def f(x: float, n: int = 3, flag: bool = False, a: ArrayLike = None,
+    s: str = "x", setup: Setup | Params = ...)``.  By annotation: ``float``/``int`` a finite
+    number (not a bool, a string or a complex number; an ``int`` integral), ``bool`` True or
+    False (not a string), ``str`` a string, ``ArrayLike`` real numbers (complex ones for the names in :data:`COMPLEX`; no bool, no NaN or inf),
+    ``Literal[...]`` one of its values, a class of fivebar an instance of it, a protocol of
+    fivebar (a period map) a callable; ``| None`` also None.  By name: the ranges of
+    :data:`RANGES` (``tol`` > 0, ``max_points`` an integer >= 2, ...) and ``*_rpm`` > 0.
+    NumPy numbers and size-one arrays are accepted as numbers and passed on as Python numbers;
+    an argument left at its default is not checked.  A call that does not match the signature
+    (an unknown keyword, a missing argument) raises :class:`InputTypeError` with the nearest
+    name.  Every error derives from :class:`FivebarError` and names the argument, its value
+    and what is allowed.
+    """
+    check = checker(fn)
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        args, kwargs = check(args, kwargs)
+        return fn(*args, **kwargs)
+
+    wrapper.__checked__ = True
+    return wrapper
+
+
+def checker(fn: Callable) -> Callable[[tuple, dict], tuple[tuple, dict]]:
+    """The check of :func:`checked` as a function ``(args, kwargs) -> (args, kwargs)`` (the
+    arguments to call ``fn`` with), for a wrapper of ``fn`` that does more
+    (:func:`fivebar.description.setup.analysis`) and runs it in its own frame: a warning's ``stacklevel``
+    counts the frames between the library and the caller."""
+    sig = inspect.signature(fn)
+    target = inspect.unwrap(fn)
+    rules: dict[str, Any] | None = None
+
+    def resolve() -> dict[str, Any]:
+        out = {}
+        for name, par in sig.parameters.items():
+            if par.kind is inspect.Parameter.VAR_KEYWORD:
+                continue
+            rule, none_ok = _rule(name, par.annotation, target.__globals__)
+            if rule is not None:
+                out[name] = (rule, none_ok or par.default is None, par.default,
+                             par.kind is inspect.Parameter.VAR_POSITIONAL)
+        return out
+
+    def check(args: tuple, kwargs: dict) -> tuple[tuple, dict]:
+        nonlocal rules
+        if rules is None:
+            rules = resolve()
+        try:
+            bound = sig.bind(*args, **kwargs)
+        except TypeError as exc:
+            names = list(sig.parameters)
+            hint = ""
+            unknown = [k for k in kwargs if k not in sig.parameters]
+            if unknown:
+                hint = _close_names(unknown[0], names)
+            raise InputTypeError(f"{fn.__name__}(): {exc}{hint}; its arguments are ({', '.join(names)})") from None
+        changed = False
+        for name, value in bound.arguments.items():
+            entry = rules.get(name)
+            if entry is None:
+                continue
+            rule, none_ok, default, star = entry
+            if star:
+                new = tuple(rule(f"{name}[{i}]", v) for i, v in enumerate(value))
+                if any(a is not b for a, b in zip(new, value)):
+                    bound.arguments[name], changed = new, True
+                continue
+            if value is default or (value is None and none_ok):
+                continue
+            new = rule(name, value)
+            if new is not value:
+                bound.arguments[name], changed = new, True
+        if changed:
+            return bound.args, bound.kwargs
+        return args, kwargs
+
+    return check

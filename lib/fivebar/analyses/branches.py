@@ -41,13 +41,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..numerics.continuation import Branch, ContinuationError, continuation, iterated_map, settle, switch_period_doubling
-from ..errors import FivebarError, InputError, flag, number
+from ..errors import FivebarError, InputError, ValidityWarning, checked, flag, number
 from ..numerics.newmark import NewtonConvergenceError
 from ..description.params import Params
 from ..model.dynamics import linkage_dynamics
 from ..numerics.periodic import PeriodicOrbit, _one_blas_thread, shoot
 from ..description.setup import Setup, analysis, as_setup
-from .steady import SteadyState, ValidityWarning, _monodromy_period, _period, _to_tolerance, _warm_start, march, shooting
+from .steady import SteadyState, _monodromy_period, _period, _to_tolerance, _warm_start, march, shooting
 
 __all__ = ["BruteForceDiagram", "LinkageBranch", "LinkagePeriodMap", "SpeedReport", "brute_force_diagram", "describe_speed",
            "explain_steady", "follow", "follow_period_doubling", "linkage_period_map", "steady_state"]
@@ -63,18 +63,33 @@ def _setup_at(setup: Setup, parameter: str, value: float) -> Setup:
     return setup.replace(params=setup.params.replace(**{parameter: float(value)}))
 
 
+def _given(setup: Setup, parameter: str, name: str, value: float) -> float:
+    """``value`` of ``parameter``, given by the user as the argument ``name`` (``p_end``,
+    ``p0``, ``value``): refused there, naming that argument, if the set-up cannot take it."""
+    try:
+        _setup_at(setup, parameter, value)
+    except FivebarError as exc:
+        raise InputError(f"{name} = {value!r} is not allowed as a value of {parameter}: {exc}") from None
+    return value
+
+
 def _check_parameter(setup: Setup, parameter: str) -> float:
     """The parameter's present value; a clear error if it is not a numeric entry."""
     if not isinstance(parameter, str):
         raise InputError(f"parameter = {parameter!r} is not allowed: give 'crank_speed_rpm' or a parameter-file key")
     if parameter == _SPEED:
         return float(setup.crank_speed_rpm)
-    from ..description.params import _resolve_key
+    from ..description.params import _is_open, _resolve_key
 
-    try:
-        key = _resolve_key(parameter)
+    try:  # as Params.replace reads it: a dotted key, or a bare name unique in the set
+        key = _resolve_key(parameter, setup.params.values)
     except FivebarError as exc:
         raise InputError(f"parameter = {parameter!r} is not allowed: {exc}") from exc
+    if key not in setup.params.values:
+        raise InputError(f"parameter = {parameter!r} is not allowed: the parameter set has no entry {key}")
+    if _is_open(key) and key not in setup.params.references:
+        raise InputError(f"parameter = {parameter!r} is not allowed: the linkage {setup.params.linkage.name!r} "
+                         f"does not use {key}, so the motion would not change with it")
     value = setup.params.values[key]
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InputError(f"parameter = {parameter!r} is not allowed: its value {value!r} is not a number")
@@ -112,7 +127,11 @@ class LinkagePeriodMap:
         with self._lock:
             hit = self._dyn.get(p)
         if hit is None:  # built outside the lock: another thread's value goes on meanwhile
-            s = _setup_at(self.setup, self.parameter, p)
+            try:
+                s = _setup_at(self.setup, self.parameter, p)
+            except FivebarError as exc:  # a value the map was asked for, not one the user gave
+                raise InputError(f"the period map in {self.parameter} cannot be evaluated at {p!r} (a value "
+                                 f"between those given, reached by the computation): {exc}") from None
             hit = (s, linkage_dynamics(s, keep=False))
             with self._lock:
                 while len(self._dyn) >= 4:
@@ -361,9 +380,10 @@ def follow(
     """
     s = as_setup(setup)
     f = linkage_period_map(s, parameter)
-    p0 = f.setup_value() if p0 is None else float(p0)
+    p0 = f.setup_value() if p0 is None else _given(s, parameter, "p0", float(p0))
     if not (isinstance(p_end, (int, float)) and math.isfinite(p_end) and p_end != p0):
         raise InputError(f"p_end = {p_end!r} is not allowed: give a finite value other than p0 = {p0!r}")
+    _given(s, parameter, "p_end", float(p_end))
     if isinstance(points, bool) or int(points) != points or points < 2:
         raise InputError(f"points = {points!r} is not allowed: give an integer >= 2")
     if not (isinstance(state_weight, (int, float)) and math.isfinite(state_weight) and state_weight > 0):
@@ -398,6 +418,7 @@ class _Doubled:
         return self._f(x, p, jacobian)
 
 
+@checked
 def follow_period_doubling(branch: LinkageBranch, index: int, p_end: float, *, h: float = 0.05,
                            points: int = 100, **kwargs) -> LinkageBranch:
     """Switch at ``branch.bifurcations[index]`` (a period doubling) onto the period-2 branch
@@ -509,6 +530,8 @@ def brute_force_diagram(
     vals = np.asarray(values, float).ravel()
     if vals.size < 1 or not np.all(np.isfinite(vals)):
         raise InputError(f"values = {values!r} is not allowed: give finite parameter values")
+    for v in vals:
+        _given(s, parameter, "values", float(v))
     order = np.r_[vals, vals[::-1]] if both_ways else vals
     dirs = np.array(["up"] * vals.size + (["down"] * vals.size if both_ways else []))
     x = None
@@ -582,7 +605,7 @@ def describe_speed(setup: Setup | Params, value: float | None = None, parameter:
     """
     s = as_setup(setup)
     f = linkage_period_map(s, parameter)
-    p = f.setup_value() if value is None else float(value)
+    p = f.setup_value() if value is None else _given(s, parameter, "value", float(value))
     try:
         st = steady_state(_setup_at(s, parameter, p))
     except FivebarError as exc:
@@ -595,6 +618,7 @@ def _unit(parameter: str) -> str:
     return " r/min" if parameter == _SPEED else ""
 
 
+@checked
 def explain_steady(st: SteadyState, periods: int = 400) -> SpeedReport:
     """:func:`describe_speed`'s report for a solved steady state ``st`` (its set-up and speed),
     without solving it again: what ``steady_state(..., explain=True)`` attaches."""

@@ -12,6 +12,7 @@ Every function takes a :class:`fivebar.description.setup.Setup` or a Params.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -20,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..numerics.modal_equations import Harmonic, ModalSystem, MultiscaleError, Parametric
 from ..numerics.multiscale import DEFAULT_DETUNING, ModulationSteadyState, SlowFlow, modulation_equations
+from ..errors import ValidityWarning
 from .response import Response
 from ..description.setup import analysis, as_setup
 from ..model.dynamics import linkage_dynamics
@@ -386,10 +388,20 @@ def multiple_scales(
     Phid = np.concatenate([Phid, Phid[:1]])
     u = np.einsum("sik,sk->si", Phi, eta)
     v = np.einsum("sik,sk->si", Phi, eta_dot) + np.einsum("sik,sk->si", Phid, eta)
-    return MultipleScalesResponse(
+    ms = MultipleScalesResponse(
         dynamics=dyn, t=t, u=u, v=v, method="multiple scales",
         modal=model, slow=slow, flow=flow, eta=eta, eta_dot=eta_dot, detuning=tol,
     )
+    # the steady state's validity checks (stress against yield, deflection against the
+    # small-deflection range), read from this response as from a SteadyState's
+    from .steady import SteadyState
+
+    outside = SteadyState._checks(ms)["reasons"]
+    if outside:
+        warnings.warn(f"the multiple-scales response at {dyn.setup.crank_speed_rpm:g} r/min is outside the model's "
+                      "validity (whatever its slow flow says of stability): " + "; ".join(outside),
+                      ValidityWarning, stacklevel=3)  # (multiple_scales, its analysis wrapper, the caller)
+    return ms
 
 
 def _energy_distance(dyn, u: Array, v: Array, ref) -> float:
@@ -499,7 +511,9 @@ def compare_starts(
         at = base.replace(crank_speed_rpm=float(s))
         dyn = linkage_dynamics(at)
         ref = shooting(at)
-        ms = multiple_scales(at, **kwargs)
+        with warnings.catch_warnings():  # the table compares the approximation at every speed; its
+            warnings.simplefilter("ignore", ValidityWarning)  # validity is the steady state's (not checked here, as before)
+            ms = multiple_scales(at, **kwargs)
         row = {"speed (r/min)": float(s)}
         for st in starts:
             u0, v0 = (ms.u[0], ms.v[0]) if st == "multiple scales" else initial_state(at, st)

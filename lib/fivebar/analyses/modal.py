@@ -20,11 +20,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..numerics.eigen import frozen_modes
-from ..errors import InputError
+from ..errors import ComputationError, InputError, memory
 from ..model.assembly import Model, build_model
 from ..model.kinematics import crank_laws
-from ..description.params import Params
-from ..description.setup import Setup, analysis, as_setup
+from ..description.params import Params, _unresolved_model
+from ..description.setup import Setup, _estimated_dofs, analysis, as_setup
 
 __all__ = [
     "Modes",
@@ -51,19 +51,30 @@ class Modes:
         return 2.0 * np.pi * self.frequencies
 
 
-def _eig(M: NDArray, K: NDArray, n: int | None) -> tuple[NDArray, NDArray]:
+def _eig(M: NDArray, K: NDArray, n: int | None, params: Params) -> tuple[NDArray, NDArray]:
     # Solved as M phi = mu K phi for the largest mu = 1/omega^2: the curvature DOFs make M
     # ill-conditioned (eigenvalues from 1e-10 to 1), and the usual K phi = omega^2 M phi
     # then gives the lowest frequencies only to about 1e-8 relative, varying with the BLAS
     # thread count; the inverse problem gives them to round-off.
     N = M.shape[-1]
-    w2, V = frozen_modes(M, K, N if n is None else min(n, N))
+    try:
+        w2, V = frozen_modes(M, K, N if n is None else min(n, N))
+    except ComputationError as exc:
+        raise _unresolved_model(params, exc) from None
     return np.sqrt(w2) / (2.0 * np.pi), V
 
 
-def _model(s: Setup, model: Model | None) -> Model:
+def _model(s: Setup, model: Model | None, configurations: int = 1) -> Model:
+    """The problem's model; refused before it is built if ``configurations`` pairs of its dense
+    M and K (and the eigensolver's work arrays) would not fit in memory."""
     if model is not None:
         return model
+    epl = s.params.linkage.check_mesh(s.elements_per_link)
+    n = _estimated_dofs(epl, s.motors)
+    memory(8.0 * n * n * (2 * configurations + 4),
+           f"the mass and stiffness matrices of about {n} DOFs (elements_per_link = {epl}) at "
+           f"{configurations} configuration(s)",
+           "give a coarser elements_per_link, or fewer crank angles")
     return build_model(s.params, elements_per_link=s.elements_per_link, motors=s.motors)
 
 
@@ -96,7 +107,7 @@ def modes(setup: Setup | Params, *theta: float, n_modes: int | None = 6, model: 
             "with the set-up's elements_per_link for more)"
         )
     M, K = m.matrices(*theta)
-    f, V = _eig(M, K, n_modes)
+    f, V = _eig(M, K, n_modes, s.params)
     return Modes(f, V, m)
 
 
@@ -122,8 +133,8 @@ def frequencies_along_cycle(setup: Setup | Params, crank_angles: ArrayLike, n_mo
     s = as_setup(setup)
     phi = np.atleast_1d(np.asarray(crank_angles, float))
     th = crank_laws(s.params, phi / s.params.crank_speed_rad_s)[0::3]
-    M, K = _model(s, None).matrices(*th)
-    return _eig(M, K, n_modes)[0]
+    M, K = _model(s, None, phi.size).matrices(*th)
+    return _eig(M, K, n_modes, s.params)[0]
 
 
 @analysis
@@ -156,11 +167,11 @@ def averaged_matrix_modes(setup: Setup | Params, n_modes: int | None = None, fra
     S, params = s.steps_per_period, s.params
     t = np.arange(S) * params.period / S
     th = crank_laws(params, t)[0::3]
-    m = _model(s, None)
+    m = _model(s, None, S)
     M, K = m.matrices(*th)
     if frame == "corotating":
         T = m.corotating_transform(*th)
         Tt = np.swapaxes(T, -1, -2)
         M, K = Tt @ M @ T, Tt @ K @ T
-    f, V = _eig(M.mean(axis=0), K.mean(axis=0), n_modes)
+    f, V = _eig(M.mean(axis=0), K.mean(axis=0), n_modes, params)
     return Modes(f, V, m)

@@ -3,7 +3,7 @@ r"""Global sensitivity of any scalar result to the uncertain inputs: Morris scre
 The paper leaves many inputs unstated or misprinted; ``data/uncertainty.toml`` gives each a
 plausible range (or a few alternative readings) with its reason (:func:`load_ranges`).  An
 output is any scalar function of a :class:`fivebar.description.setup.Setup` (named ones in
-:data:`OUTPUTS`: the midpoint peak-to-peak deflections of Figure 6, the largest Floquet
+:data:`SCALAR_OUTPUTS`: the midpoint peak-to-peak deflections of Figure 6, the largest Floquet
 multiplier, the peak stress against yield).  Two methods of the field, both from SALib
 (Herman and Usher 2017, https://salib.readthedocs.io):
 
@@ -56,7 +56,7 @@ from ..numerics.newmark import _blas_threads
 from ..description.params import Params, load_params
 from ..description.setup import Setup, as_setup
 
-__all__ = ["OUTPUTS", "RANGES_PATH", "MidpointPeakToPeak", "MorrisResult", "ResonanceSpeed", "SensitivityError", "SobolResult",
+__all__ = ["SCALAR_OUTPUTS", "RANGES_PATH", "MidpointPeakToPeak", "MorrisResult", "ResonanceSpeed", "SensitivityError", "SobolResult",
            "SteadyStateOutput", "Surrogate", "UncertainInput", "apply", "evaluate", "fit_surrogate",
            "load_ranges", "morris", "morris_indices", "output", "sobol", "sobol_indices", "spread", "unit_sample"]
 
@@ -317,7 +317,7 @@ class ResonanceSpeed:
 
 
 #: The named outputs (:func:`output`); any callable of a Setup that returns a number serves as well.
-OUTPUTS: dict[str, Callable[[Setup], float]] = {
+SCALAR_OUTPUTS: dict[str, Callable[[Setup], float]] = {
     "L2 p-p (um)": MidpointPeakToPeak("L2"),
     "L3 p-p (um)": MidpointPeakToPeak("L3"),
     "L2 bending p-p (um)": MidpointPeakToPeak("L2", "chord"),
@@ -329,14 +329,14 @@ OUTPUTS: dict[str, Callable[[Setup], float]] = {
 
 
 def output(name: str | Callable[[Setup], float]) -> Callable[[Setup], float]:
-    """A named output of :data:`OUTPUTS`, or a callable as it is; anything else raises
+    """A named output of :data:`SCALAR_OUTPUTS`, or a callable as it is; anything else raises
     :class:`SensitivityError` listing the names."""
     if callable(name):
         return name
-    if isinstance(name, str) and name in OUTPUTS:
-        return OUTPUTS[name]
+    if isinstance(name, str) and name in SCALAR_OUTPUTS:
+        return SCALAR_OUTPUTS[name]
     raise SensitivityError(f"output = {name!r} is not allowed: give a callable of a fivebar.Setup that returns a "
-                           f"number, or one of {list(OUTPUTS)}")
+                           f"number, or one of {list(SCALAR_OUTPUTS)}")
 
 
 # --- evaluation ------------------------------------------------------------------------------
@@ -528,7 +528,7 @@ def morris(out: str | Callable[[Setup], float], setup: Setup | Params,
     Parameters
     ----------
     out
-        A name of :data:`OUTPUTS` or a callable of a :class:`fivebar.description.setup.Setup` returning a
+        A name of :data:`SCALAR_OUTPUTS` or a callable of a :class:`fivebar.description.setup.Setup` returning a
         number (top-level, to run in worker processes).
     setup
         The problem at its nominal values (a Setup, or a Params); the inputs not varied keep them.

@@ -47,14 +47,14 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from ..cache import STORE
-from ..errors import FivebarError, InputError, array, number
+from ..errors import FivebarError, InputError, ValidityWarning, array, flag, number
 from ..model.dynamics import LinkageDynamics, linkage_dynamics
 from ..numerics.eigen import frozen_modes
 from ..numerics.newmark import NewtonConvergenceError, integrate
 from ..numerics.schemes import Scheme
 from ..description.params import Params
 from .response import Response, _problem
-from ..description.setup import Setup, analysis, default_scheme, min_steps_per_period, scheme_name
+from ..description.setup import Setup, analysis, as_setup, default_scheme, min_steps_per_period, scheme_name
 
 __all__ = ["DEFLECTION_LIMIT", "SteadyState", "SteadyStateError", "ValidityWarning", "march", "shooting"]
 
@@ -64,11 +64,6 @@ MAX_PERIODS, MAX_SHOOTING_ITER = 100_000, 1000
 
 class SteadyStateError(FivebarError, RuntimeError):
     """The periodic steady state was not reached within the allowed periods or iterations."""
-
-
-class ValidityWarning(UserWarning):
-    """A result lies outside the model's range of validity (stress above yield, deflection past
-    the small-deflection range, or a step too coarse for the accuracy it reports)."""
 
 
 #: The small-deflection range of the beam model: the midpoint deflection of a link relative to
@@ -343,6 +338,11 @@ def march(
             raise NewtonConvergenceError(
                 f"marching failed in period {k}: {exc}. " + _remedy(scheme, dyn.steps_per_period),
                 exc.t, exc.residual, exc.iterations) from exc
+        if not (np.all(np.isfinite(res.u[-1])) and np.all(np.isfinite(res.v[-1]))):
+            raise SteadyStateError(
+                f"the march diverged in period {k}: the state grew past the largest double (it is no longer "
+                "finite) from " + ("rest" if u0 is None and v0 is None else "the given u0, v0") + "; "
+                + _remedy(scheme, dyn.steps_per_period))
         scale = _energy_norm(dyn, res.u, res.v).max()
         change = float(_energy_norm(dyn, res.u[-1] - u, res.v[-1] - v)) / max(scale, 1e-300)
         u, v = res.u[-1], res.v[-1]

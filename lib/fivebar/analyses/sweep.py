@@ -136,10 +136,19 @@ class _Signals:
 
 def _stop_executor(executor: cf.Executor, futures) -> None:
     r"""Cancel the queued ``futures`` and, for a process pool, terminate its worker processes
-    now (a running point is not waited for); the pool is shut down without waiting."""
-    for fut in futures:
-        fut.cancel()
+    now (a running point is not waited for); the pool is shut down without waiting.
+
+    A process pool's futures are not cancelled here but by the pool's own shutdown
+    (``cancel_futures=True``), which also drops them from the pool's pending work: a future
+    cancelled from outside stays there, and when the terminated workers break the pool, its
+    manager thread sets an exception on every pending future, which for a cancelled one raises
+    ``InvalidStateError``, printed as a traceback of the thread (CPython 3.11)."""
     procs = list((getattr(executor, "_processes", None) or {}).values())
+    queue = getattr(executor, "_call_queue", None)
+    if not procs:
+        for fut in futures:
+            fut.cancel()
+    executor.shutdown(wait=False, cancel_futures=True)
     for proc in procs:
         if proc.is_alive():
             proc.terminate()
@@ -150,10 +159,8 @@ def _stop_executor(executor: cf.Executor, futures) -> None:
             proc.join(1.0)
     # the call queue's feeder thread may be blocked writing to the dead workers' pipe; joined at
     # exit it would hang the process for good (CPython's multiprocessing.Queue): let it go
-    queue = getattr(executor, "_call_queue", None)
     if procs and queue is not None and hasattr(queue, "cancel_join_thread"):
         queue.cancel_join_thread()
-    executor.shutdown(wait=False, cancel_futures=True)
 
 
 def ignore_sigint() -> None:
@@ -278,7 +285,7 @@ def speed_sweep(
     pandas.DataFrame
         One row per speed, in the order given; columns of :func:`sweep_point`, with the
         validity of each row (``valid`` False where the stress is above yield or the deflection
-        past the small-deflection range; one :class:`fivebar.analyses.steady.ValidityWarning` then says
+        past the small-deflection range; one :class:`fivebar.errors.ValidityWarning` then says
         how many rows).
     """
     try:

@@ -24,10 +24,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import InputError
+from ..errors import InputError, checked
 from ..model.kinematics import crank_laws, positions
 from ..description.setup import Setup
 from ..description.params import Params
+from ..analyses.response import Response
 
 __all__ = [
     "Animation",
@@ -103,13 +104,15 @@ class LinkageFrames:
     peak_mm: float
 
 
-def linkage_frames(steady, scale: float | None = None, frames: int = 48, points: int = _POINTS) -> LinkageFrames:
+@checked
+def linkage_frames(steady: Response, scale: float | None = None, frames: int = 48, points: int = _POINTS) -> LinkageFrames:
     """The linkage over one steady period with its elastic deflection times ``scale``.
 
     Parameters
     ----------
-    steady : SteadyState
-        From :func:`fivebar.analyses.branches.steady_state`.
+    steady : Response
+        A steady state (:func:`fivebar.analyses.branches.steady_state`), or any
+        :class:`~fivebar.analyses.response.Response` over one period.
     scale
         Magnification of the elastic displacement; ``None`` chooses the 1-2-5 number that
         draws the largest displacement at about 8 % of the length of the first coupler (L2 of
@@ -153,6 +156,7 @@ class ModeFrames:
     curve: NDArray
 
 
+@checked
 def mode_frames(params: Params, n_modes: int = 3, frames: int = 36, points: int = _POINTS,
                 motors: bool = True) -> ModeFrames:
     """The ``n_modes`` lowest mode shapes at ``frames`` crank angles over one turn of the first
@@ -294,7 +298,8 @@ def _limits(ax, arrays, pad: float = 0.06) -> None:
     ax.set_aspect("equal", adjustable="box")
 
 
-def animate_linkage(steady, scale: float | None = None, frames: int = 48, dpi: int = 72,
+@checked
+def animate_linkage(steady: Response, scale: float | None = None, frames: int = 48, dpi: int = 72,
                     interval_ms: int = 80) -> Animation:
     """The linkage over one crank turn, its elastic deflection magnified ``scale`` times.
 
@@ -337,6 +342,7 @@ def animate_linkage(steady, scale: float | None = None, frames: int = 48, dpi: i
     return Animation(png, interval_ms, f"Linkage over one crank turn, elastic deflection x {data.scale:g}", w, h)
 
 
+@checked
 def animate_modes(params: Params, n_modes: int = 3, frames: int = 36, dpi: int = 64, interval_ms: int = 120,
                   motors: bool = True) -> Animation:
     """The ``n_modes`` lowest mode shapes and their frequencies along one crank turn.

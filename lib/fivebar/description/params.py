@@ -5,20 +5,29 @@ The paper's numbers (section 5) and the project's assumptions for the numbers it
 layered over it), checks every entry and returns a frozen :class:`Params`.  Values are SI
 inside the library; the only exception is ``crank_speed_rpm``, kept in r/min because that is
 how people state it (``Params.crank_speed_rad_s`` gives rad/s).
+
+The sections ``[geometry]`` and ``[masses]`` are open: their entries are the numbers the
+linkage description refers to (``length = "geometry.L1"``), so their names are the file's own.
+An entry that nothing refers to is refused with the nearest known name (``L22 = 0.3``: "did
+you mean 'geometry.L2'?"), unless it comes from a file whose own ``[linkage]`` a later file
+replaced (the paper's L1..L5 under the four-bar's description) or it is declared free, a
+number kept for the reader's own use: ``bracket = { value = 0.05, free = true }``.
 """
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 import tomllib
+import warnings
 from importlib import resources
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from ..errors import FivebarError, ParameterError, plain
+from ..errors import FivebarError, ParameterError, ValidityWarning, plain
 from .linkage import Linkage, Material, Section, linkage_from_toml
 
 __all__ = ["Motor", "Motors", "Params", "load_params", "DEFAULT_PARAMS_PATH", "FOURBAR_PARAMS_PATH"]
@@ -293,8 +302,9 @@ class Params:
             if link.name == name:
                 return link.length
         for section in _OPEN:
-            if f"{section}.{name}" in self.references:
-                return self.values[f"{section}.{name}"]
+            key = f"{section}.{name}"
+            if key in self.references or (key in self.values and _is_free(self.meta, key)):
+                return self.values[key]
         raise AttributeError(
             f"'Params' object has no attribute {name!r} (the linkage {self.linkage.name!r} has the links "
             f"{list(self.linkage.link_names)})"
@@ -362,22 +372,72 @@ class Params:
             values.update(checked)
             return replace(self, **{k.split(".", 1)[1]: v for k, v in checked.items()}, values=values,
                            meta=dict(self.meta))
-        return _build(values, dict(self.meta))
+        out = _build(values, dict(self.meta))
+        _refuse_unused(out, [(k, "Params.replace") for k in changed if _is_open(k)])
+        return out
 
 
 def _resolve_key(key: str, values: Mapping[str, Any] = {}) -> str:
     if key in _ALL_KEYS or (key.split(".", 1)[0] in _OPEN and "." in key) or _motor_rule(key):
         return key
-    known = list(_ALL_KEYS) + [k for k in values if k.split(".", 1)[0] in _OPEN or _motor_rule(k)]
+    known = list(dict.fromkeys(list(_ALL_KEYS) + [k for k in values if _is_open(k) or _motor_rule(k)]))
     matches = [k for k in known if k.split(".", 1)[1] == key]
     if len(matches) == 1:
         return matches[0]
     if len(matches) > 1:
         raise ParameterError(f"parameter name {key!r} is ambiguous: use one of {matches}")
     raise ParameterError(
-        f"unknown parameter {key!r}: allowed are the dotted keys of data/wang2011.toml "
+        f"unknown parameter {key!r}{_nearest(key, known)}: allowed are the dotted keys of data/wang2011.toml "
         f"(for example 'geometry.width', 'assumptions.crank_speed_rpm', or an entry of a [motor<k>] section)"
     )
+
+
+def _is_open(key: str) -> bool:
+    """A free-named entry of an open section ([geometry], [masses]; not one of the schema's, such
+    as geometry.width): a number the description may use."""
+    return "." in key and key.split(".", 1)[0] in _OPEN and key not in _ALL_KEYS
+
+
+def _is_free(meta: Mapping[str, Mapping[str, Any]], key: str) -> bool:
+    """An open entry declared free in its file (``{ value = ..., free = true }``)."""
+    return meta.get(key, {}).get("free") is True
+
+
+def _nearest(key: str, known: Iterable[str]) -> str:
+    """" (did you mean 'geometry.L2'?)" for the known key nearest to ``key`` (difflib), by its
+    dotted name or by its bare name; "" if none is near."""
+    known = [k for k in known if "." in k]
+    section, _, name = key.partition(".") if "." in key else ("", "", key)
+    sections = {k.split(".", 1)[0] for k in known} | set(_OPEN)
+    if section and section not in sections:  # a misspelt section: the nearest one, the same name
+        near = difflib.get_close_matches(section, sorted(sections), n=1, cutoff=0.6)
+        if not near:
+            return ""
+        guess = f"{near[0]}.{name}"
+        return f" (did you mean {guess!r}?)" if guess in known or near[0] in _OPEN else \
+            f" (did you mean the section [{near[0]}]?)"
+    # the names of the same section (L22 -> L2, not geometry.L22 -> geometry.L5), or of any
+    same = {k.split(".", 1)[1]: k for k in known if not section or k.split(".", 1)[0] == section}
+    near = [same[b] for b in difflib.get_close_matches(name, list(same), n=1, cutoff=0.6)]
+    return f" (did you mean {near[0]!r}?)" if near else ""
+
+
+def _refuse_unused(params: "Params", entries: list[tuple[str, str]]) -> None:
+    """Refuse the open entries ``(key, where)`` that the linkage description does not use and
+    that are not declared free: a typo (``L22`` for ``L2``) would otherwise be kept and ignored."""
+    bad = [(k, w) for k, w in entries if k not in params.references and not _is_free(params.meta, k)]
+    if not bad:
+        return
+    used = sorted(params.references & {k for k in params.values if _is_open(k)})
+    known = used + [k for k in params.values if _is_open(k) and _is_free(params.meta, k)]
+    lines = [f"{k} = {params.values.get(k)!r} ({w}){_nearest(k, known)}" for k, w in bad[:3]]
+    more = f"; and {len(bad) - 3} more" if len(bad) > 3 else ""
+    name = params.linkage.name or "of the file"
+    raise ParameterError(
+        f"{len(bad)} unknown {'entry' if len(bad) == 1 else 'entries'} of [geometry]/[masses], which the "
+        f"linkage {name!r} does not use: {'; '.join(lines)}{more}.  It uses "
+        f"{', '.join(used) if used else 'none of them'}; an entry kept for another use must be declared "
+        "free: name = { value = ..., free = true }")
 
 
 def _flatten(doc: Mapping[str, Any], origin: str) -> tuple[dict[str, Any], dict[str, dict]]:
@@ -398,6 +458,9 @@ def _flatten(doc: Mapping[str, Any], origin: str) -> tuple[dict[str, Any], dict[
                     raise ParameterError(f"{origin}: {key} has no 'value'")
                 values[key] = entry["value"]
                 meta[key] = {k: v for k, v in entry.items() if k != "value"} | {"file": origin}
+                if "free" in entry and (not isinstance(entry["free"], bool) or not _is_open(key)):
+                    raise ParameterError(f"{origin}: {key}.free = {entry['free']!r} is not allowed: only an entry of "
+                                         "[geometry] or [masses] may be declared free, with true or false")
             else:
                 values[key] = entry
                 meta[key] = {"file": origin, "source": f"override in {origin}"}
@@ -478,8 +541,48 @@ def _build(values: Mapping[str, Any], meta: Mapping[str, Mapping[str, Any]]) -> 
         motors=tuple(sections),
     )
     checked["linkage"] = values["linkage"]
+    _warn_unresolved_angles(checked, linkage)
     return Params(**top, linkage=linkage, motors=Motors({sec: motor(sec) for sec in sections}), values=checked,
                   meta=dict(meta), references=frozenset(used))
+
+
+def _unresolved_model(params: "Params", exc: Exception) -> ParameterError:
+    """The error of a model whose frozen modes cannot be computed (``exc``, from
+    :func:`fivebar.numerics.eigen.frozen_modes`): its mass and stiffness span more than double precision
+    resolves; the message names the entries they are made of."""
+    masses = {k: params.values[k] for k in sorted(params.references) if k.startswith("masses.")}
+    return ParameterError(
+        f"the linkage's model cannot be solved with these parameters ({exc}). Check material.rho = "
+        f"{params.rho!r} kg/m^3 and material.E = {params.E!r} Pa (aluminium: 2700 kg/m^3 and 70e9 Pa), the "
+        f"section geometry.width = {params.width!r} x geometry.thickness = {params.thickness!r} m"
+        + (f" and the lumped masses {masses} (kg)" if masses else "")
+        + ": a link whose own mass or stiffness is many orders of magnitude from the rest of the model "
+        "leaves its highest modes below the round-off of the matrices")
+
+
+#: The largest angle (rad) whose round-off a double keeps below 1e-9 rad (a million turns):
+#: beyond it the crank angle theta0 + Omega t is not resolved as the model needs.
+ANGLE_LIMIT = 2.0 * math.pi * 1e6
+
+
+def _warn_unresolved_angles(checked: Mapping[str, Any], linkage: Linkage) -> None:
+    """A :class:`~fivebar.errors.ValidityWarning` for every angle (rad) of the set, and every
+    initial crank angle of the description, beyond :data:`ANGLE_LIMIT`: legal numbers, but a
+    double resolves an angle of 1e20 rad only to 1.6e4 rad, so the crank angle theta0 + Omega t
+    does not advance as the model needs and every result from it is meaningless."""
+    angles = {k: v for k, v in checked.items() if (_ALL_KEYS.get(k) or (None, ""))[1] == "rad"}
+    angles.update({f"linkage.joints.{j.name}.theta0": j.drive.theta0 for j in linkage.cranks if j.drive})
+    big = {k: v for k, v in angles.items() if abs(v) > ANGLE_LIMIT}
+    if big:
+        worst = max(big.values(), key=abs)
+        warnings.warn(
+            ", ".join(f"{k} = {v:g} rad" for k, v in big.items()) + (" is" if len(big) == 1 else " are")
+            + " beyond what the model resolves: a double "
+            f"spaces angles near {worst:g} rad {math.ulp(worst):.2g} rad apart (above {ANGLE_LIMIT:.3g} rad, a "
+            "million turns, the round-off passes 1e-9 rad), so the crank angle theta0 + Omega t does not advance "
+            "as it should and every result is meaningless; give the angle modulo 2 pi "
+            "(math.remainder(angle, 2 * math.pi))", ValidityWarning,
+            stacklevel=4)  # (this, _build, load_params or Params.replace, the caller)
 
 
 def load_params(
@@ -538,13 +641,27 @@ def load_params(
                                  f"{exc.strerror or exc}") from None
         except tomllib.TOMLDecodeError as exc:
             raise ParameterError(f"parameter file path = {str(p)!r} is not valid TOML: {exc}") from None
+        except UnicodeDecodeError as exc:
+            raise ParameterError(f"parameter file path = {str(p)!r} is not valid UTF-8 (a TOML file is UTF-8 text): "
+                                 f"byte {exc.object[exc.start:exc.start + 1]!r} at offset {exc.start}") from None
         layers.append(_flatten(doc, str(p)))
     for v, m in layers:
         values.update(v)
         for k, mk in m.items():
             meta[k] = {**meta.get(k, {}), **mk}
+    given = []
     for key, value in (overrides or {}).items():
         k = _resolve_key(key, values)
         values[k] = value
         meta[k] = {**meta.get(k, {}), "source": "override in code"}
-    return _build(values, meta)
+        if _is_open(k):
+            given.append((k, "overrides"))
+    params = _build(values, meta)
+    # the open entries must be used by the description, except those of a file whose own
+    # [linkage] a later file replaced (they belong to that description) and those declared free
+    for i, (v, _) in enumerate(layers):
+        if "linkage" in v and any("linkage" in later for later, _ in layers[i + 1:]):
+            continue
+        given += [(k, paths[i].name) for k in v if _is_open(k)]
+    _refuse_unused(params, given)
+    return params

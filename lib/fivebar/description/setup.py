@@ -25,7 +25,7 @@ from typing import Any
 
 from fractions import Fraction
 
-from ..errors import InputError, InputTypeError, flag, memory, number
+from ..errors import InputError, InputTypeError, checker, flag, memory, number
 from ..numerics.schemes import GeneralizedAlpha, Newmark, Scheme
 from .params import Params
 
@@ -144,12 +144,13 @@ class Setup:
         rpm = number("crank_speed_rpm", rpm, low=0, low_open=True, unit="r/min")
         S_min = min_steps_per_period(p)
         S = p.steps_per_period if self.steps_per_period is None else self.steps_per_period
-        S = number("steps_per_period", S, integer=True, low=1)
+        S = number("steps_per_period", S, integer=True)
         if S < S_min:
             raise InputError(
-                f"steps_per_period = {S!r} is too small to resolve the motion: the load of (2.10) has "
-                f"{p.fourier_terms} harmonics of the crank frequency, which need at least {S_min} steps "
-                f"per period (2 m + 1); the parameter file's default is {p.steps_per_period}"
+                f"steps_per_period = {S!r} is too small to resolve the motion: give an integer >= {S_min}; the "
+                f"load of (2.10) has {p.fourier_terms} harmonics of the crank frequency (fourier_terms), which "
+                f"need at least {S_min} steps per period (2 m + 1); the parameter file's default is "
+                f"{p.steps_per_period}"
             )
         for name in ("motors", "nonlinear"):
             object.__setattr__(self, name, flag(name, getattr(self, name)))
@@ -217,9 +218,11 @@ def analysis(fn: Callable) -> Callable:
     field of :class:`Setup` passed to it as a keyword (``steady_state(params,
     steps_per_period=400)``) raises :class:`~fivebar.errors.InputError` naming the keyword
     and saying where it belongs, ``Setup(params, ...)`` or ``setup.replace(...)``; the set-up
-    says it, once."""
+    says it, once.  Every argument is then checked by the library's validation layer
+    (:func:`fivebar.errors.checked`: by its annotation and name)."""
     own = set(inspect.signature(fn).parameters)
     refused = [name for name in SETUP_FIELDS if name not in own]
+    check = checker(fn)
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
@@ -232,5 +235,6 @@ def analysis(fn: Callable) -> Callable:
                 f"{fn.__name__}; give {'it' if len(bad) == 1 else 'them'} in the set-up: "
                 f"{fn.__name__}(fivebar.Setup(params, {given}), ...) or "
                 f"{fn.__name__}(setup.replace({given}), ...)")
+        args, kwargs = check(args, kwargs)
         return fn(*args, **kwargs)
     return wrapper

@@ -55,7 +55,7 @@ from .kinematics import crank_laws, rigid_state
 from ..numerics.newmark import _blas_threads
 from ..numerics.systems import PeriodicStepData
 from .nonlinear import ElementGeometry, NonlinearForce
-from ..description.params import Params
+from ..description.params import Params, _unresolved_model
 from ..description.setup import Setup, as_setup
 
 __all__ = ["LinkageDynamics", "linkage_dynamics", "modal_damping"]
@@ -264,7 +264,10 @@ class LinkageDynamics:
             C = np.ascontiguousarray(beta * Kb)
             K = np.ascontiguousarray(K + beta * Yb)
         else:
-            C = modal_damping(M, K, params.damping_ratio)
+            try:
+                C = modal_damping(M, K, params.damping_ratio)
+            except ComputationError as exc:
+                raise _unresolved_model(params, exc) from None
         return M, C, K, F
 
     def _bending(self, laws, state) -> tuple[NDArray, NDArray]:
@@ -302,13 +305,17 @@ class LinkageDynamics:
     def stiffness_damping_time(self) -> float:
         """The damping time beta (s) of the stiffness-proportional damping, 2 zeta / omega_1.
 
-        omega_1 is the lowest frozen mode at the initial crank angles, as in the definition of
-        the multibody model's Kelvin-Voigt damping time
+        omega_1 is the lowest frozen mode at the initial crank angles (those of the description's
+        drive laws at t = 0: theta1_0 and theta4_0 of the five-bar), as in the definition of the
+        multibody model's Kelvin-Voigt damping time
         (:func:`fivebar.analyses.multibody.multibody_steady_state`).
         """
         p, k = self.params, self.keep
-        M, K = self.model.matrices(p.theta1_0, p.theta4_0)
-        w2 = frozen_modes(M[np.ix_(k, k)], K[np.ix_(k, k)])[0]
+        M, K = self.model.matrices(*(float(a[0]) for a in self.crank_angles(np.zeros(1))))
+        try:
+            w2 = frozen_modes(M[np.ix_(k, k)], K[np.ix_(k, k)])[0]
+        except ComputationError as exc:
+            raise _unresolved_model(p, exc) from None
         return 2.0 * p.damping_ratio / float(np.sqrt(np.min(w2)))
 
     # --- SecondOrderSystem protocol ---------------------------------------------------------------

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import FivebarError, InputError
+from ..errors import FivebarError, InputError, checked
 from ..description.linkage import Linkage
 from ..description.params import Params
 
@@ -114,7 +114,12 @@ def _split(lk: Linkage, args: tuple, per: int, mode: int | None, what: str) -> t
         )
     mode = 1 if mode is None else mode
     _check_mode(mode)
-    return list(np.broadcast_arrays(*(np.asarray(x, float) for x in args))), mode
+    arrays = [np.asarray(x, float) for x in args]
+    try:
+        return list(np.broadcast_arrays(*arrays)), mode
+    except ValueError:
+        raise InputError(f"{what} of shapes {', '.join(str(a.shape) for a in arrays)} are not allowed: they must "
+                         "broadcast together (one shape, or scalars)") from None
 
 
 def _where(lk: Linkage, theta: list[NDArray], i: int) -> str:
@@ -180,6 +185,7 @@ def _close(lk: Linkage, theta: list[NDArray], mode: int) -> tuple[dict[str, NDAr
     return P, {"unknown": (bi, bj)}
 
 
+@checked
 def positions(params: Params, *theta: ArrayLike, mode: int | None = None) -> dict[str, NDArray]:
     """Joint coordinates for given crank angles.
 
@@ -214,6 +220,7 @@ def positions(params: Params, *theta: ArrayLike, mode: int | None = None) -> dic
     return _close(lk, th, mode)[0]
 
 
+@checked
 def link_angles(params: Params, *theta: ArrayLike, mode: int | None = None) -> dict[str, NDArray]:
     """Angles (rad) of the links to the x axis (each from its start to its end joint), for
     crank angles as in :func:`positions`."""

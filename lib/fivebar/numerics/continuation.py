@@ -115,7 +115,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import ComputationError, FivebarError, InputError
+from ..errors import ComputationError, FivebarError, InputError, array, checked, number
 from .periodic import PeriodMap, PeriodicOrbit, floquet_multipliers, monodromy, _one_blas_thread, shoot
 
 __all__ = [
@@ -477,6 +477,7 @@ def _outside_nonreal(mu: NDArray[np.complex128]) -> int:
     return int(np.count_nonzero(~real & (np.abs(mu) > 1)))
 
 
+@checked
 @_one_blas_thread
 def continuation(
     period_map: PeriodMap,
@@ -558,7 +559,21 @@ def continuation(
     if not (math.isfinite(p0) and math.isfinite(p_end) and p0 != p_end):
         raise InputError(f"p0 = {p0!r}, p_end = {p_end!r} are not allowed: give two different finite values")
     periods = getattr(period_map, "periods", 1)
-    x0 = np.asarray(x0, float)
+    x0 = array("x0", x0, shape=(None,))
+    if tangent is not None:
+        tangent = array("tangent", tangent, shape=(x0.size + 1,))
+        if not np.any(tangent):
+            raise InputError(f"tangent = {tangent!r} is not allowed: give a direction (not zero) of shape "
+                             f"({x0.size + 1},), the state's {x0.size} components and the parameter")
+    if p_bounds is not None:
+        try:
+            lo, hi = (number("p_bounds", v) for v in p_bounds)
+        except (TypeError, ValueError):
+            raise InputError(f"p_bounds = {p_bounds!r} is not allowed: give (low, high), two finite numbers, or None") from None
+        if not lo < hi or not lo <= p0 <= hi:
+            raise InputError(f"p_bounds = {p_bounds!r} is not allowed: give (low, high) with low < high and "
+                             f"low <= p0 <= high (p0 = {p0!r}), or None for the default")
+        p_bounds = (lo, hi)
     if scale is None:
         orb0 = shoot(period_map, x0, p0, tol=tol)
         big = float(np.abs(orb0.x).max())
@@ -907,6 +922,8 @@ def _state_scale(x: NDArray, scale: ArrayLike | None) -> NDArray:
         raise InputError(f"scale has shape {D.shape} or non-positive entries: give ({x.size},) positive values")
     return D
 
+
+@checked
 def switch_period_doubling(
     period_map: PeriodMap,
     bif: Bifurcation,
@@ -1017,6 +1034,7 @@ class Settled:
     samples: Array
 
 
+@checked
 @_one_blas_thread
 def settle(period_map: PeriodMap, orbit: PeriodicOrbit, p: float | None = None, *, periods: int = 400,
            scale: ArrayLike | None = None, disturbance: float = 0.01, rtol: float = 1e-4,

@@ -16,7 +16,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import InputError
+from ..errors import ComputationError, InputError
 
 __all__ = ["frozen_modes"]
 
@@ -37,17 +37,30 @@ def frozen_modes(M: ArrayLike, K: ArrayLike, n: int | None = None) -> tuple[NDAr
     k = N if n is None else int(n)
     if not 1 <= k <= N:
         raise InputError(f"n = {n!r} modes is not allowed: give 1..{N} (the size of the matrices)")
-    if M.ndim == 2:
-        mu, V = scipy.linalg.eigh(M, K, subset_by_index=(N - k, N - 1))
-    else:
+    if not (np.all(np.isfinite(M)) and np.all(np.isfinite(K))):
+        raise ComputationError("the frozen modes cannot be computed: M or K holds entries that are not finite "
+                               "(an overflow of the numbers they are made of)")
+    try:
+        if M.ndim == 2:
+            mu, V = scipy.linalg.eigh(M, K, subset_by_index=(N - k, N - 1))
+        else:
+            Li = np.linalg.inv(np.linalg.cholesky(K))
+    except np.linalg.LinAlgError as exc:
+        raise ComputationError(f"the frozen modes cannot be computed: K is not positive definite to working "
+                               f"precision ({exc})") from None
+    if M.ndim > 2:
         # one batched inverse of the triangular factor and products, instead of three batched
         # general solves with it (a third less time for a stack of S configurations)
-        Li = np.linalg.inv(np.linalg.cholesky(K))
         LiT = np.swapaxes(Li, -1, -2)
         A = Li @ M @ LiT  # L^-1 M L^-T
         mu, Y = np.linalg.eigh(0.5 * (A + np.swapaxes(A, -1, -2)))
         mu, Y = mu[..., N - k:], Y[..., N - k:]
         V = LiT @ Y  # L^-T Y: V^T K V = I
     mu, V = mu[..., ::-1], V[..., ::-1]  # ascending frequency
+    if not np.all(mu > 0):  # (mu = 1 / omega^2 of the highest modes lost in the round-off of M)
+        raise ComputationError(
+            f"the frozen modes cannot be computed: M is not positive definite to working precision (the "
+            f"smallest eigenvalue of M relative to K is {float(np.min(mu)):.3g}, the largest "
+            f"{float(np.max(mu)):.3g}): its smallest entries are lost in the round-off of its largest")
     Phi = V / np.sqrt(mu)[..., None, :]  # mass-normalised: Phi^T M Phi = I
     return 1.0 / mu, Phi

@@ -47,7 +47,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import ComputationError, InputError
+from ..errors import ComputationError, InputError, checked
 from .newmark import NewtonConvergenceError, _blas_threads, integrate
 from .schemes import GENERIC_SCHEME, Scheme
 from .systems import PeriodicStepData, SecondOrderSystem
@@ -327,6 +327,7 @@ def _one_blas_thread(func: Callable[..., Any]) -> Callable[..., Any]:
     return wrapper
 
 
+@checked
 @_one_blas_thread
 def shoot(period_map: PeriodMap, x0: ArrayLike, p: float | None = None, tol: float = 1e-10,
           max_iter: int = 30, scale: ArrayLike | None = None) -> PeriodicOrbit:
