@@ -910,8 +910,6 @@ def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, 
                        periods), True
 
 
-@_one_blas_thread
-
 def _state_scale(x: NDArray, scale: ArrayLike | None) -> NDArray:
     """The scale of each state entry: ``scale`` checked, or the largest entry of ``x`` (1 when ``x`` is 0)."""
     if scale is None:
@@ -923,6 +921,7 @@ def _state_scale(x: NDArray, scale: ArrayLike | None) -> NDArray:
     return D
 
 
+@_one_blas_thread
 @checked
 def switch_period_doubling(
     period_map: PeriodMap,
