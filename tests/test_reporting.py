@@ -183,3 +183,20 @@ def test_the_errata_page_has_one_notation():
             hit = _ASCII_MATH.search(prose)
             assert not hit, f"{e['id']} {key}: ASCII maths {hit.group(0)!r} in {e[key]!r}"
     assert _ASCII_MATH.search(_outside_math_and_code("mu0 F_m / (k_mu delta0) is about 11 T"))
+
+
+def test_sentence_helpers_say_what_their_examples_say():
+    """The helpers that put numbers into a chapter's generated sentences (they replaced functions
+    defined in the chapters' cells): their docstring examples, run as doctests."""
+    import doctest
+
+    import fivebar.book.reporting as rep
+
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS)
+    finder = doctest.DocTestFinder()
+    tried = 0
+    for f in (rep.percent, rep.change, rep.sci, rep.length_text, rep.ordinal, rep.how_many, rep.certain):
+        for t in finder.find(f, f.__name__, globs=vars(rep)):
+            runner.run(t)
+            tried += len(t.examples)
+    assert tried >= 7 and runner.failures == 0

@@ -260,8 +260,9 @@ class LinkageBranch:
         (:attr:`fivebar.analyses.steady.SteadyState.validity`, its cheap checks): one row per point with
         the parameter, ``peak stress (MPa)``, ``stress / yield`` (the file's ``yield_stress``),
         ``deflection / length`` (against :data:`fivebar.analyses.steady.DEFLECTION_LIMIT`, the
-        small-deflection range), ``stable`` and ``valid``.  One period integrated per point
-        (kept)."""
+        small-deflection range), ``compression / Euler load`` (the buckling check of the link
+        nearest to buckling, :meth:`fivebar.analyses.response.Response.buckling`), ``stable`` and
+        ``valid``.  One period integrated per point (kept)."""
         if "validity" not in self._pp:
             import pandas as pd
 
@@ -270,6 +271,7 @@ class LinkageBranch:
                 c = self.steady(i)._checks()
                 rows.append({self.parameter: float(q.p), "peak stress (MPa)": c["peak bending stress (MPa)"],
                              "stress / yield": c["stress / yield"], "deflection / length": c["deflection / length"],
+                             "compression / Euler load": c["compression / Euler load"],
                              "stable": bool(self.branch.stable[i]), "valid": bool(c["valid"])})
             self._pp["validity"] = pd.DataFrame(rows)
         return self._pp["validity"].copy()
@@ -284,6 +286,117 @@ class LinkageBranch:
                 x = (1 - w) * self.branch.points[i].x + w * self.branch.points[i + 1].x
                 return shoot(self.period_map, x, p, tol=tol, scale=self.branch.scale)
         raise InputError(f"p = {p!r} is not allowed: the branch covers {ps.min():.6g} to {ps.max():.6g}")
+
+    def orbits_at(self, p: float, segments: Any = None, tol: float = 1e-10) -> list[PeriodicOrbit]:
+        """Every orbit of the branch at the parameter value ``p``, shot there.
+
+        ``[o.stable for o in branch.orbits_at(197.0)]``: one orbit for each segment of the branch
+        (between two consecutive points) that contains ``p`` (of ``segments``, the indices of
+        their first points; default all), shot at ``p`` from the state interpolated between the
+        segment's two points, else from the nearer point, else the farther one; an orbit equal
+        (to 1e-6 of its largest entry) to one already found is not repeated.  Unlike the points
+        of the branch, whose places depend on the step control, these orbits depend on ``p``
+        alone.  Between two folds there are three; a segment whose orbit cannot be shot is left
+        out (the list may be empty where the branch does not reach ``p``).
+        """
+        p = number("p", p)
+        ps, pts = self.p, self.branch.points
+        out: list[PeriodicOrbit] = []
+        for i in (range(len(ps) - 1) if segments is None else segments):
+            lo, hi = sorted((ps[i], ps[i + 1]))
+            if not (lo <= p <= hi and hi > lo):
+                continue
+            w = (p - ps[i]) / (ps[i + 1] - ps[i])
+            xa, xb = pts[i].x, pts[i + 1].x
+            orb = None
+            for x in ((1 - w) * xa + w * xb, *((xa, xb) if w < 0.5 else (xb, xa))):
+                try:
+                    orb = shoot(self.period_map, x, p, tol=tol, scale=self.branch.scale)
+                    break
+                except FivebarError:
+                    orb = None
+            if orb is not None and not any(np.abs(orb.x - o.x).max() <= 1e-6 * np.abs(o.x).max() for o in out):
+                out.append(orb)
+        return out
+
+    def section_mm(self, link: str | None = None) -> Array:
+        """The Poincaré section of every point: the transverse midpoint deflection (mm) of
+        ``link`` (default the description's first coupler, L2) at crank angle 0, the coordinate
+        :func:`brute_force_diagram` samples."""
+        base = self.period_map if isinstance(self.period_map, LinkagePeriodMap) else self.period_map.base
+        link = _link(base.setup, link)
+        out = []
+        for q in self.branch.points:
+            dyn = base.dynamics(q.p)[1]
+            out.append(_midpoint0(dyn, q.x[: dyn.n], link))
+        return np.array(out)
+
+    def validity_at(self, p: float) -> dict[str, Any]:
+        """The validity checks (:attr:`fivebar.analyses.steady.SteadyState.validity`, its cheap
+        part) of the branch's first orbit at ``p`` (:meth:`orbits_at`, the segment met first
+        from the branch's start)."""
+        orbits = self.orbits_at(p)
+        if not orbits:
+            raise InputError(f"p = {p!r} is not allowed: the branch covers {self.p.min():.6g} to {self.p.max():.6g}")
+        return dict(self.period_map.steady(orbits[0].x, p)._checks())
+
+    def first_crossing(self, key: str, level: float, xtol: float = 1e-4) -> float | None:
+        """The first parameter value where the validity check ``key`` (a column of
+        :meth:`validity`: ``"stress / yield"``, ``"deflection / length"``,
+        ``"compression / Euler load"``) reaches ``level``, on the branch from its start up to its
+        first located bifurcation (the whole branch if it has none); None if it does not.
+
+        The crossing is bracketed by two points of the branch and located by Brent's method on
+        orbits shot at the parameter (:meth:`validity_at`), to ``xtol``: it depends on the
+        problem, not on the step control.  ``branch.first_crossing("stress / yield", 1.0)``:
+        where the links start to yield.
+        """
+        from scipy.optimize import brentq
+
+        val = self.validity()
+        if key not in val:
+            raise InputError(f"key = {key!r} is not allowed: use a column of LinkageBranch.validity(): "
+                             f"{[c for c in val.columns if c not in (self.parameter, 'stable', 'valid')]}")
+        v = val[key].to_numpy(float)
+        first = min((b.index for b in self.bifurcations), default=len(v))
+        up = np.flatnonzero((v[1:] > level) & (v[:-1] <= level) & (np.arange(len(v) - 1) < first))
+        if not up.size:
+            return None
+        i = int(up[0])
+        return float(brentq(lambda p: self.validity_at(p)[key] - level, self.p[i], self.p[i + 1], xtol=xtol))
+
+    def step_check(self, p: float, steps: Any, x: ArrayLike | None = None) -> "pd.DataFrame":
+        """The orbit at ``p`` shot again with other numbers of steps per period: is S fine enough?
+
+        ``branch.step_check(196.97, (100, 200, 400))``: one row per S of ``steps`` with the
+        transverse midpoint peak-to-peak (mm) of every link of the description and the orbit's
+        stability, from the state ``x`` (default: the branch's first orbit at ``p``); the state
+        ``(u, du/dtheta)`` at crank angle 0 does not depend on the step.  A row whose orbit
+        cannot be shot (near a fold, which moves with the step) holds NaN and stability None.
+        """
+        import pandas as pd
+
+        base = self.period_map if isinstance(self.period_map, LinkagePeriodMap) else self.period_map.base
+        if x is None:
+            orbits = self.orbits_at(p)
+            if not orbits:
+                raise InputError(f"p = {p!r} is not allowed: the branch covers {self.p.min():.6g} to {self.p.max():.6g}")
+            x = orbits[0].x
+        links = base.setup.params.linkage.link_names
+        rows = []
+        for S in steps:
+            f = LinkagePeriodMap(base.setup.replace(steps_per_period=int(S)), self.parameter)
+            row: dict[str, Any] = {"S": int(S)}
+            try:
+                orb = shoot(f, np.asarray(x, float), p, scale=self.branch.scale)
+                st = f.steady(orb.x, p)
+                row.update({f"{k} p-p (mm)": st.peak_to_peak_mm(k) for k in links})
+                row["stable"] = orb.stable
+            except FivebarError:
+                row.update({f"{k} p-p (mm)": np.nan for k in links})
+                row["stable"] = None
+            rows.append(row)
+        return pd.DataFrame(rows)
 
     def summary(self, unit: str = "r/min") -> list[str]:
         """One line per located bifurcation."""

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..cache import memoised
 from ..model.dynamics import LinkageDynamics, linkage_dynamics
-from ..model.elements import shape_functions
+from ..model.elements import euler_loads, shape_functions
 from ..errors import ComputationError, InputError, array, number
 from ..numerics.newmark import integrate
 from ..numerics.schemes import Scheme
@@ -201,6 +201,63 @@ class Response:
                 out[el.link] = max(out.get(el.link, 0.0), p.E * 0.5 * p.bending_depth * kappa)
             self._cache[key] = out
         return dict(self._cache[key])
+
+    def axial_force(self) -> dict[str, NDArray]:
+        r"""Axial force (N, tension positive) of every element of each link at the samples.
+
+        ``N = response.axial_force()["L2"]``: shape (samples, elements of the link).
+
+        The force of an element is :math:`N = EA\,(V' + \bar e)`: its stretch
+        :math:`V' = (u_2 - u_1)/L` and, where the model is nonlinear, the element mean of the
+        membrane strain of a bent element :math:`\bar e = \frac1{2L}\int_0^L W'^2\,d\bar x`
+        (the same for every strain measure of :mod:`fivebar.model.nonlinear`; the energy's
+        derivative with respect to the stretch).  In the linear model :math:`N = EA\,V'`.  The
+        force is the one the elastic links carry: the rigid-body inertia of the KED model loads
+        the links through the elastic deformation.
+        """
+        if "axial" not in self._cache:
+            from ..model.nonlinear import _slopes
+
+            dyn = self.dynamics
+            m = dyn.model
+            q = self._element_displacements()  # (N, nel, 8)
+            links = {k.name: k for k in dyn.params.linkage.links}
+            out: dict[str, list[NDArray]] = {}
+            for i, el in enumerate(m.elements):
+                link = links[el.link]
+                EA = link.material.E * link.section.area
+                L = el.length
+                strain = (q[:, i, 4] - q[:, i, 0]) / L
+                if dyn.nonlinear is not None:
+                    w, g = _slopes(L)
+                    strain = strain + 0.5 / L * ((q[:, i, :] @ g.T) ** 2 @ w)
+                out.setdefault(el.link, []).append(EA * strain)
+            self._cache["axial"] = {k: np.stack(v, axis=-1) for k, v in out.items()}
+        return {k: v.copy() for k, v in self._cache["axial"].items()}
+
+    def buckling(self, effective_length_factor: float | None = None) -> dict[str, dict[str, float]]:
+        """The buckling check of every link: its largest compressive axial force over the samples
+        against its Euler loads in and out of the plane of motion.
+
+        ``response.buckling()["L2"]["compression / Euler load"]``.  For each link: ``"largest
+        compression (N)"`` (the largest of :math:`-N` over its elements and the samples, 0 if it
+        is in tension throughout; :meth:`axial_force`), ``"Euler load in plane (N)"`` and
+        ``"Euler load out of plane (N)"`` (:func:`fivebar.model.elements.euler_loads` with
+        ``effective_length_factor``, by default the parameter file's assumption
+        ``buckling_length_factor``), and ``"compression / Euler load"``, against the lower of
+        the two (the link buckles at 1).
+        """
+        params = self.dynamics.params
+        if effective_length_factor is None:
+            effective_length_factor = params.buckling_length_factor
+        links = {k.name: k for k in params.linkage.links}
+        out = {}
+        for name, N in self.axial_force().items():
+            comp = float(max(0.0, -N.min()))
+            p_in, p_out = euler_loads(links[name], effective_length_factor)
+            out[name] = {"largest compression (N)": comp, "Euler load in plane (N)": p_in,
+                         "Euler load out of plane (N)": p_out, "compression / Euler load": comp / min(p_in, p_out)}
+        return out
 
 
 @memoised

@@ -164,12 +164,16 @@ class SteadyState(Response):
         (the file's ``yield_stress``), ``"stress / yield"``; ``"deflection / length"`` (the
         largest midpoint deflection relative to the chord, over the period, divided by the link's
         length) and its ``"deflection link"``, ``"deflection limit"`` (:data:`DEFLECTION_LIMIT`,
-        the small-deflection range); ``"speed ratio"`` and ``"period (s)"`` (the drive is
+        the small-deflection range); ``"largest compression (N)"``, ``"Euler load (N)"`` (the
+        lower of the in-plane and out-of-plane Euler loads, pinned ends) and their ratio
+        ``"compression / Euler load"`` of the ``"buckling link"``, the link nearest to buckling
+        (:meth:`~fivebar.analyses.response.Response.buckling`); ``"speed ratio"`` and ``"period (s)"`` (the drive is
         periodic: :func:`fivebar.description.setup.drive_period`); ``"S error estimate"``, the relative change
         of the transverse midpoint deflections of L2 and L3 from S to ``"S compared"`` (from
         ``steady_state(..., tol=...)``, or computed here at 2 S where it is cheap: the linear
         model up to 32 DOFs; else None until :meth:`check_accuracy`); ``"valid"`` (stress
-        below yield and deflection within the limit) and ``"reasons"`` (what is outside).
+        below yield, deflection within the limit and compression below the Euler load) and
+        ``"reasons"`` (what is outside).
         """
         out = dict(self._checks())
         if self.accuracy is not None:
@@ -204,11 +208,17 @@ class SteadyState(Response):
             lengths = {k.name: k.length for k in p.linkage.links}
             defl = {k: float(np.abs(self.midpoint_mm(k, "chord")).max()) * 1e-3 / L for k, L in lengths.items()}
             d_link = max(defl, key=defl.get)
+            buck = self.buckling()
+            b_link = max(buck, key=lambda k: buck[k]["compression / Euler load"])
             ratio, period = drive_period(p)
             c = {"peak bending stress (MPa)": float(stress[s_link]) / 1e6, "stress link": s_link,
                  "yield stress (MPa)": p.yield_stress / 1e6, "stress / yield": float(stress[s_link]) / p.yield_stress,
                  "deflection / length": defl[d_link], "deflection link": d_link,
-                 "deflection limit": DEFLECTION_LIMIT, "speed ratio": str(ratio), "period (s)": period}
+                 "deflection limit": DEFLECTION_LIMIT,
+                 "largest compression (N)": buck[b_link]["largest compression (N)"],
+                 "Euler load (N)": min(buck[b_link]["Euler load in plane (N)"], buck[b_link]["Euler load out of plane (N)"]),
+                 "compression / Euler load": buck[b_link]["compression / Euler load"], "buckling link": b_link,
+                 "speed ratio": str(ratio), "period (s)": period}
             reasons = []
             if c["stress / yield"] >= 1.0:
                 reasons.append(f"peak bending stress {c['peak bending stress (MPa)']:.4g} MPa in {s_link} is "
@@ -216,6 +226,9 @@ class SteadyState(Response):
             if c["deflection / length"] > DEFLECTION_LIMIT:
                 reasons.append(f"the midpoint deflection of {d_link} is {c['deflection / length']:.3g} of its "
                                f"length, past the small-deflection range ({DEFLECTION_LIMIT:g})")
+            if c["compression / Euler load"] >= 1.0:
+                reasons.append(f"the largest compressive axial force of {b_link}, {c['largest compression (N)']:.4g} N, "
+                               f"reaches its Euler load {c['Euler load (N)']:.4g} N (it would buckle)")
             c["valid"] = not reasons
             c["reasons"] = reasons
             self._cache["checks"] = c

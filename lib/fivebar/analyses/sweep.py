@@ -36,10 +36,11 @@ import signal
 import threading
 import warnings
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 from scipy.signal import find_peaks
 from tqdm import tqdm
 
@@ -47,10 +48,12 @@ from ..cache import STORE
 from ..errors import FivebarError, number
 from ..description.params import Params
 from ..description.setup import Setup, analysis, as_setup
+from .modal import frequencies_along_cycle
 from .response import quasi_static
 from .steady import DEFLECTION_LIMIT, ValidityWarning, shooting
 
-__all__ = ["SweepError", "SweepInterrupted", "match_peaks", "sweep_point", "speed_sweep", "sweep_peaks"]
+__all__ = ["ResonanceBand", "SweepError", "SweepInterrupted", "match_peaks", "resonance_band", "sweep_point",
+           "speed_sweep", "sweep_peaks"]
 
 #: the kind of key of a sweep point in the library's store: (kind, params, speed, options)
 _POINTS = "sweep.point"
@@ -206,8 +209,9 @@ def sweep_point(
     validity of the result (:attr:`fivebar.analyses.steady.SteadyState.validity`): ``peak stress (MPa)``
     (bending, the largest over the links), ``stress / yield`` (the file's ``yield_stress``),
     ``deflection / length`` (midpoint against chord, the largest over the links; the model's
-    range is :data:`fivebar.analyses.steady.DEFLECTION_LIMIT`), ``period (s)`` (the drive's period: a
-    speed ratio that gives none is refused), ``valid`` (both within range) and, with
+    range is :data:`fivebar.analyses.steady.DEFLECTION_LIMIT`), ``compression / Euler load`` (the
+    buckling check, the largest over the links), ``period (s)`` (the drive's period: a
+    speed ratio that gives none is refused), ``valid`` (all three within range) and, with
     ``accuracy=True``, ``S error estimate`` (S against 2 S; one more steady state per speed).
     A top-level function, so that it can run in worker processes.
     """
@@ -228,6 +232,7 @@ def sweep_point(
     out["peak stress (MPa)"] = v["peak bending stress (MPa)"]
     out["stress / yield"] = v["stress / yield"]
     out["deflection / length"] = v["deflection / length"]
+    out["compression / Euler load"] = v["compression / Euler load"]
     out["period (s)"] = v["period (s)"]
     out["valid"] = bool(v["valid"])
     if accuracy:
@@ -284,8 +289,8 @@ def speed_sweep(
     -------
     pandas.DataFrame
         One row per speed, in the order given; columns of :func:`sweep_point`, with the
-        validity of each row (``valid`` False where the stress is above yield or the deflection
-        past the small-deflection range; one :class:`fivebar.errors.ValidityWarning` then says
+        validity of each row (``valid`` False where the stress is above yield, the deflection
+        past the small-deflection range or a link's compression above its Euler load; one :class:`fivebar.errors.ValidityWarning` then says
         how many rows).
     """
     try:
@@ -358,11 +363,70 @@ def _warn_invalid(df: pd.DataFrame) -> None:
         return
     bad = df[~df["valid"].astype(bool)]
     warnings.warn(
-        f"{len(bad)} of {len(df)} sweep rows are outside the model's validity (stress above yield or "
-        f"deflection past {DEFLECTION_LIMIT:g} of a link's length), from {bad['speed (r/min)'].min():g} r/min "
+        f"{len(bad)} of {len(df)} sweep rows are outside the model's validity (stress above yield, "
+        f"deflection past {DEFLECTION_LIMIT:g} of a link's length or compression above a link's Euler load), "
+        f"from {bad['speed (r/min)'].min():g} r/min "
         f"(largest stress / yield {bad['stress / yield'].max():.3g}, deflection / length "
-        f"{bad['deflection / length'].max():.3g}): see the columns 'valid', 'stress / yield' and "
-        "'deflection / length'", ValidityWarning, stacklevel=4)  # (speed_sweep and its analysis wrapper)
+        f"{bad['deflection / length'].max():.3g}"
+        + (f", compression / Euler load {bad['compression / Euler load'].max():.3g}" if "compression / Euler load" in bad else "")
+        + "): see the columns 'valid', 'stress / yield', 'deflection / length' and 'compression / Euler load'",
+        ValidityWarning, stacklevel=4)  # (speed_sweep and its analysis wrapper)
+
+
+class ResonanceBand(NamedTuple):
+    """Where a crank harmonic meets the lowest frozen mode (:func:`resonance_band`).
+
+    ``frequencies_hz``: the lowest frozen frequency at the crank angles sampled; ``speeds_rpm``:
+    the speeds of the linear sweep across the band; ``pp_mm``: the transverse midpoint
+    peak-to-peak of ``link`` there (NaN where no steady state was found); ``peak_rpm``: the speed
+    of the largest one; ``harmonic`` and ``link`` as asked."""
+
+    frequencies_hz: NDArray
+    speeds_rpm: NDArray
+    pp_mm: NDArray
+    peak_rpm: float
+    harmonic: int
+    link: str
+
+
+@analysis
+def resonance_band(setup: Setup | Params, harmonic: int = 2, step_rpm: float = 2.0, angles: int = 72,
+                   link: str | None = None) -> ResonanceBand:
+    r"""The resonance of the lowest frozen mode with the crank harmonic ``harmonic``, located by
+    the linear model's steady state across the band of speeds where they meet.
+
+    ``band = resonance_band(Setup(params, motors=False, steps_per_period=200), harmonic=2)``.
+
+    The lowest frozen frequency :math:`f_1(\theta)` changes along the cycle
+    (:func:`fivebar.analyses.modal.frequencies_along_cycle` at ``angles`` crank angles); the
+    harmonic :math:`k\Omega/60` meets it between :math:`60\min f_1/k` and
+    :math:`60\max f_1/k` r/min.  Across that band, every ``step_rpm``, the linear model's
+    periodic steady state (shooting, the set-up's scheme and S, ``nonlinear=False``) gives the
+    transverse midpoint peak-to-peak of ``link`` (default the first coupler, L2); the largest
+    marks the resonance speed.  The set-up's crank speed is not used.
+    """
+    s = as_setup(setup)
+    harmonic = int(number("harmonic", harmonic, integer=True, low=1, high=1000))
+    step_rpm = number("step_rpm", step_rpm, low=1e-6)
+    angles = int(number("angles", angles, integer=True, low=4, high=100_000))
+    names = s.params.linkage.link_names
+    link = s.params.linkage.couplers[0] if link is None else link
+    if link not in names:
+        raise SweepError(f"link = {link!r} is not allowed: use one of {list(names)}")
+    f1 = frequencies_along_cycle(s, np.linspace(0.0, 2 * np.pi, angles + 1)[:-1], n_modes=1)[:, 0]
+    speeds = np.arange(np.floor(60 * f1.min() / harmonic), np.ceil(60 * f1.max() / harmonic) + 1.0, step_rpm)
+    linear = s.replace(nonlinear=False)
+    pp = []
+    for p in speeds:
+        try:
+            pp.append(shooting(linear.replace(crank_speed_rpm=float(p))).peak_to_peak_mm(link))
+        except FivebarError:
+            pp.append(np.nan)
+    pp = np.array(pp)
+    if not np.isfinite(pp).any():
+        raise SweepError(f"no steady state of the linear model was found at the {speeds.size} speeds of the band "
+                         f"{speeds[0]:g}-{speeds[-1]:g} r/min (harmonic = {harmonic})")
+    return ResonanceBand(f1, speeds, pp, float(speeds[np.nanargmax(pp)]), harmonic, link)
 
 
 def sweep_peaks(sweep: pd.DataFrame, column: str, prominence: float = 0.05) -> pd.DataFrame:

@@ -29,6 +29,12 @@ from ..description.params import DEFAULT_PARAMS_PATH, Params, load_params
 __all__ = [
     "ERRATA_PATH",
     "certain",
+    "change",
+    "how_many",
+    "length_text",
+    "ordinal",
+    "percent",
+    "sci",
     "ERRATA_FIELDS",
     "ERRATA_MATH_FIELDS",
     "ReportError",
@@ -190,6 +196,7 @@ _NO_EFFECT = {
     "eccentricity_scale": _ROTOR_ONLY,
     "fourier_terms": "none: it is used by the multiple-scales approximation only",
     "yield_stress": "none: it is the limit the computed stress is compared with",
+    "buckling_length_factor": "none: it sets the Euler load the computed compression is compared with",
 }
 
 
@@ -252,6 +259,80 @@ def certain(value: float, uncertainty: float, decimals: int = 2) -> str:
         if same(d):
             return f"{value:.{d}f}"
     return f"{value:.0f}"
+
+
+# --- words and numbers for the sentences a chapter generates --------------------------------------
+def percent(fraction: float, digits: int = 2) -> str:
+    """A fraction as a magnitude in per cent, ``digits`` significant digits.
+
+    >>> percent(0.0905), percent(-0.229), percent(0.00442, 3)
+    ('9 %', '23 %', '0.442 %')
+    """
+    return f"{100 * abs(float(fraction)):.{int(digits)}g} %"
+
+
+def change(pct: float) -> str:
+    """A signed change given in per cent: "+12.5 %", or "a factor 3.2" once it exceeds 100 %.
+
+    >>> change(12.54), change(-3.0), change(220.0)
+    ('+12.5 %', '-3 %', 'a factor 3.2')
+    """
+    pct = float(pct)
+    return f"{pct:+.3g} %" if abs(pct) < 100 else f"a factor {1 + pct / 100:.3g}"
+
+
+def sci(x: float, digits: int = 1) -> str:
+    r"""``x`` for a sentence: plain between 0.01 and 10^4, else LaTeX scientific notation.
+
+    >>> sci(0.5), sci(1.2e-5, 2), sci(3e6)
+    ('0.5', '$1.2\\times10^{-5}$', '$3\\times10^{6}$')
+    """
+    x = float(x)
+    if 1e-2 <= abs(x) < 1e4:
+        return f"{x:.{int(digits)}g}"
+    mantissa, exponent = f"{x:.{int(digits) - 1}e}".split("e")
+    return f"${mantissa}\\times10^{{{int(exponent)}}}$"
+
+
+def length_text(value_um: float) -> str:
+    """A length as words with its unit: micrometres below a millimetre, else millimetres.
+
+    >>> length_text(36.25), length_text(2450.0)
+    ('36.2 µm', '2.45 mm')
+
+    Parameters
+    ----------
+    value_um : float
+        The length (µm).
+    """
+    um = float(value_um)
+    return f"{um:.3g} µm" if abs(um) < 1e3 else f"{um / 1e3:.3g} mm"
+
+
+def ordinal(k: int) -> str:
+    """'first', 'second', 'third', then '4th', '5th', ...
+
+    >>> ordinal(2), ordinal(5)
+    ('second', '5th')
+    """
+    k = int(k)
+    return {1: "first", 2: "second", 3: "third"}.get(k, f"{k}th")
+
+
+def how_many(ok: Any, noun: str = "angle") -> str:
+    """Where a condition holds among cases: "at every angle", "at no angle" or "at 3 of 24 angles".
+
+    >>> how_many([True, True]), how_many([False]), how_many([True, False, False], "speed")
+    ('at every angle', 'at no angle', 'at 1 of 3 speeds')
+    """
+    import numpy as np
+
+    ok = np.asarray(ok, bool)
+    if ok.all():
+        return f"at every {noun}"
+    if not ok.any():
+        return f"at no {noun}"
+    return f"at {int(ok.sum())} of {ok.size} {noun}s"
 
 
 def table(df: pd.DataFrame, digits: int | dict[str, int] = 4, caption: str | None = None,

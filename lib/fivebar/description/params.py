@@ -89,6 +89,7 @@ _SCHEMA: dict[str, tuple[Any, str]] = {
     "assumptions.em_variant": (("choice", ("calibrated", "literal")), "-"),
     "assumptions.eccentricity_scale": ("nonneg", "-"),
     "assumptions.yield_stress": ("pos", "Pa"),
+    "assumptions.buckling_length_factor": ("pos", "-"),
     "assumptions.strain_measure": (("choice", ("uniform", "corotated", "literal")), "-"),
     "assumptions.damping_model": (("choice", ("modal", "stiffness")), "-"),
 }
@@ -287,6 +288,7 @@ class Params:
     em_variant: str
     eccentricity_scale: float
     yield_stress: float
+    buckling_length_factor: float
     strain_measure: str
     damping_model: str
     values: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)

@@ -46,6 +46,7 @@ from numpy.polynomial import polynomial as P
 from ..cache import memoised
 from ..numerics.eigen import frozen_modes
 from ..errors import InputError
+from ..description.linkage import Link
 from ..description.params import Motor
 
 __all__ = [
@@ -56,6 +57,7 @@ __all__ = [
     "beam_element",
     "assemble_line",
     "bending_frequencies",
+    "euler_loads",
     "shaft_section",
     "motor_shape_functions",
     "motor_element",
@@ -403,6 +405,50 @@ def bending_frequencies(
     # whereas the smallest of (K, M) carry the rounding error of the stiffest (curvature) modes
     w2, _ = frozen_modes(M[np.ix_(keep, keep)], K[np.ix_(keep, keep)], modes)
     return np.sqrt(w2)
+
+
+def euler_loads(link: Link, effective_length_factor: float = 1.0) -> tuple[float, float]:
+    r"""Euler buckling loads (N) of a link in the plane of motion and out of it.
+
+    ``in_plane, out_of_plane = euler_loads(params.linkage.link("L2"))``.
+
+    A straight column of length :math:`L`, Young's modulus :math:`E` and second moment
+    :math:`I` buckles under the axial compression
+
+    .. math::
+
+        P_E = \frac{\pi^2 E I}{(K L)^2},
+
+    :math:`K` the effective length factor (1 for a column pinned at both ends, 0.7 clamped and
+    pinned, 0.5 clamped at both).  The flat bar has two: in the plane of motion it bends about
+    the normal to the plane, :math:`I = b d^3/12` with :math:`d` the side in the plane (the
+    section's ``bending_depth``); out of the plane about its other axis,
+    :math:`I = d b^3/12`.  The default :math:`K = 1` reads every link as pinned at both ends in
+    both planes: a revolute joint lets the link turn in the plane, and out of the plane its
+    stiffness is not known; for the cranks, clamped to the motor shafts, it is conservative.
+
+    Parameters
+    ----------
+    link
+        A link of the description (``params.linkage.link(name)``): its length, section and
+        material are used.
+    effective_length_factor
+        :math:`K` (> 0).
+
+    Returns
+    -------
+    (in_plane, out_of_plane) : floats (N)
+    """
+    if not isinstance(link, Link):
+        raise InputError(f"link = {link!r} is not allowed: give a fivebar.description.linkage.Link "
+                         "(params.linkage.link(name))")
+    k = _positive("effective_length_factor", effective_length_factor)
+    sec, E = link.section, link.material.E
+    d = sec.bending_depth
+    b = sec.area / d  # the other side
+    EI_in, EI_out = E * b * d**3 / 12.0, E * d * b**3 / 12.0
+    scale = math.pi**2 / (k * link.length) ** 2
+    return EI_in * scale, EI_out * scale
 
 
 # --- motor element (A.1)-(A.4) ---------------------------------------------------------------

@@ -48,9 +48,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ComputationError, InputError, checked
+from .modal_equations import Harmonic, ModalSystem, Parametric, _check_inputs
 from .newmark import NewtonConvergenceError, _blas_threads, integrate
 from .schemes import GENERIC_SCHEME, Scheme
-from .systems import PeriodicStepData, SecondOrderSystem
+from .systems import PeriodicStepData, SecondOrderSystem, System
 
 __all__ = [
     "PeriodMap",
@@ -59,6 +60,7 @@ __all__ = [
     "ShootingError",
     "floquet_multipliers",
     "iterate_map",
+    "modal_period_map",
     "monodromy",
     "newmark_map",
     "shoot",
@@ -209,6 +211,105 @@ def newmark_map(family: PeriodicProblem | Callable[[float | None], PeriodicProbl
         return xT, Phi
 
     return period_map
+
+
+def modal_period_map(system: ModalSystem, harmonics: "list[Harmonic] | tuple" = (),
+                     parametric: "list[Parametric] | tuple" = (), *, period: float | None = None,
+                     steps: int = 200, scheme: Scheme | None = None) -> PeriodMap:
+    r"""The period map of the modal equations (3.4), with the excitation frequency as parameter.
+
+    ``f = modal_period_map(system, [Harmonic(1.0, [F])])``; ``shoot(f, x0, p=1.1)`` is the
+    periodic response of the modes forced at 1.1 rad/s; ``continuation(f, x0, 0.9, 1.4)``
+    follows it over the forcing frequency.
+
+    At the parameter :math:`p` every frequency of ``harmonics`` and ``parametric`` is
+    multiplied by :math:`p` (``p = 1``: the system as given), and the map advances
+
+    .. math::
+
+        \ddot\eta_r + 2\zeta_r\omega_r\dot\eta_r + \omega_r^2\eta_r + \sum_s\alpha_{rs}\eta_s
+        + \sum_{j,s}P^{(j)}_{rs}\cos(p\,\Omega^P_j t + \varphi_j)\,\eta_s
+        - \sum_{s,t}\delta_{rst}\eta_s\eta_t - \sum_{s,t,u}\gamma_{rstu}\eta_s\eta_t\eta_u
+        = \sum_j F_{rj}\cos(p\,\Omega_j t + \tau_{rj})
+
+    (:meth:`fivebar.numerics.modal_equations.ModalSystem.acceleration`) over ``period / p``
+    with ``steps`` steps of ``scheme``, the state :math:`(\boldsymbol\eta, \dot{\boldsymbol\eta})`
+    at :math:`t = 0`.  The numerical counterpart of the multiple-scales solution
+    (:mod:`fivebar.numerics.multiscale`) of the same equations: its orbits, their Floquet
+    multipliers and their branches (:mod:`fivebar.numerics.continuation`) check the first
+    approximation and its stability.
+
+    Parameters
+    ----------
+    system : ModalSystem
+    harmonics, parametric : sequences of Harmonic, Parametric
+        The excitation at ``p = 1`` (frequencies in rad/s).
+    period : float, optional
+        The excitation's period at ``p = 1`` (s); default :math:`2\pi/\Omega_{min}`, the lowest
+        non-zero frequency of the excitation (every other must be a whole multiple of it).
+    steps : int
+        Steps per period (>= 8).
+    scheme : Scheme, optional
+        Default :data:`fivebar.numerics.schemes.GENERIC_SCHEME`.
+
+    Returns
+    -------
+    PeriodMap
+        ``(x, p, jacobian) -> (x_T, Phi)``, with ``x = (eta, eta_dot)``.
+    """
+    _check_inputs(system, harmonics, parametric)
+    if isinstance(steps, bool) or int(steps) != steps or steps < 8:
+        raise InputError(f"steps = {steps!r} is not allowed: give an integer >= 8")
+    freqs = [h.frequency for h in harmonics] + [q.frequency for q in parametric]
+    nonzero = [f for f in freqs if f > 0]
+    if period is None:
+        if not nonzero:
+            raise InputError("period = None is not allowed without an excitation frequency: give the period (s)")
+        period = 2 * math.pi / min(nonzero)
+    period = float(period)
+    if not (math.isfinite(period) and period > 0):
+        raise InputError(f"period = {period!r} is not allowed: give a positive period (s)")
+    for f in nonzero:
+        k = f * period / (2 * math.pi)
+        if abs(k - round(k)) > 1e-9 * max(1.0, k):
+            raise InputError(f"period = {period!r} s is not allowed: the excitation frequency {f!r} rad/s "
+                             f"is not a whole multiple of 2 pi / period")
+    n = system.n_modes
+    w, zeta = system.w, system.zeta
+    C = np.diag(2 * zeta * w)
+    K0 = np.diag(w**2) + system.alpha
+    delta, gamma = system.delta, system.gamma
+    has_nl = bool(np.any(delta) or np.any(gamma))
+
+    def nonlinear(u):
+        f = -(np.einsum("rst,s,t->r", delta, u, u) + np.einsum("rstu,s,t,u->r", gamma, u, u, u))
+        Kt = -(np.einsum("rst,t->rs", delta + delta.transpose(0, 2, 1), u)
+               + np.einsum("rstu,t,u->rs", gamma + gamma.transpose(0, 2, 1, 3) + gamma.transpose(0, 3, 2, 1), u, u))
+        return f, Kt
+
+    def family(p):
+        p = float(p if p is not None else 1.0)
+        if not (math.isfinite(p) and p > 0):
+            raise InputError(f"p = {p!r} is not allowed: the frequency factor must be positive")
+        if parametric:
+            def K(t):
+                out = K0.copy()
+                for q in parametric:
+                    out = out + math.cos(p * q.frequency * t + q.phase) * q.stiffness
+                return out
+        else:
+            K = K0
+        force = None
+        if harmonics:
+            def force(t):
+                out = np.zeros(n)
+                for h in harmonics:
+                    out = out + h.amplitude * np.cos(p * h.frequency * t + h.phase)
+                return out
+        sysm = System(np.eye(n), C, K, force=force, nonlinear=nonlinear if has_nl else None)
+        return PeriodicProblem(sysm, period / p, int(steps), scheme=scheme)
+
+    return newmark_map(family)
 
 
 def _with_step_data(prob: PeriodicProblem) -> PeriodicProblem:
