@@ -59,3 +59,27 @@ def test_a_list_written_as_a_string_is_refused_with_the_papermill_remedy(tmp_pat
     with pytest.raises(fivebar.errors.InputError, match=r"list written as a string.*-y"):
         chapter.load(f'["{f}"]')
     assert chapter.load([str(f)]).crank_speed_rpm == 120
+
+
+def test_warnings_are_shown_as_admonitions_without_paths(monkeypatch):
+    """warnings_shown: each different message of the block once, as the book's admonition with
+    its title and numbers, no file or line of the code that warned; other categories pass on."""
+    import warnings
+
+    import IPython.display
+
+    from fivebar.book.chapter import warnings_shown
+    from fivebar.errors import ValidityWarning
+
+    shown = []
+    monkeypatch.setattr(IPython.display, "display", lambda obj: shown.append(obj.data))
+    with warnings.catch_warnings(record=True) as outer:
+        warnings.simplefilter("always")
+        with warnings_shown(ValidityWarning) as caught:
+            for _ in range(2):
+                warnings.warn("116 of 120 sweep rows are outside the model's validity", ValidityWarning)
+            warnings.warn("another kind", DeprecationWarning)
+    assert len(caught) == 2 and len(shown) == 1
+    assert shown[0].startswith("```{warning} Outside the model's validity\n116 of 120 sweep rows")
+    assert shown[0].endswith("\n```") and ".py" not in shown[0]
+    assert [str(w.message) for w in outer] == ["another kind"]

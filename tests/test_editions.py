@@ -281,6 +281,30 @@ def test_strip_solutions_cases() -> None:
         fivebar_build.strip_solutions("```{solution-start} ex\n```\ntext\n")
 
 
+def test_strip_removes_the_cells_that_compute_the_solutions() -> None:
+    """A code cell tagged "solution" (it glues the numbers of the solutions) goes with the
+    solutions; other code cells, tagged or not, stay."""
+    nb = {"cells": [
+        {"cell_type": "markdown", "metadata": {}, "source": "```{exercise}\n:label: ex-a-1\nQ.\n```\n\n"
+                                                            "```{solution} ex-a-1\nThe answer is {glue:text}`a`.\n```\n"},
+        {"cell_type": "code", "metadata": {"tags": ["remove-cell", "solution"]}, "source": "glue('a', '42')", "outputs": []},
+        {"cell_type": "code", "metadata": {"tags": ["remove-input"]}, "source": "physics_check(...)", "outputs": []},
+        {"cell_type": "code", "metadata": {}, "source": "x = 1", "outputs": []}]}
+    assert fivebar_build.strip_notebook_solutions(nb) == 1
+    assert [c["source"] for c in nb["cells"][1:]] == ["physics_check(...)", "x = 1"]
+    assert "answer" not in nb["cells"][0]["source"] and "{exercise}" in nb["cells"][0]["source"]
+
+
+def test_every_solution_cell_is_hidden_from_the_page() -> None:
+    """The cells that compute the solutions' numbers are removed from every page (tag
+    remove-cell): their outputs are the answers."""
+    bad = [f"{nb.name} cell {k}" for nb in sorted((ROOT / "book").glob("*.ipynb"))
+           for k, c in enumerate(json.loads(nb.read_text())["cells"])
+           if fivebar_build.SOLUTION_TAG in c.get("metadata", {}).get("tags", [])
+           and "remove-cell" not in c["metadata"]["tags"]]
+    assert not bad, f"solution cells shown on the page: {bad}"
+
+
 def test_strip_removes_every_solution_of_the_book() -> None:
     """Stripping the notebooks leaves none of the solutions markdown-it finds in them."""
     found = _blocks("solution")

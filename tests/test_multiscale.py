@@ -507,3 +507,40 @@ def test_bad_input_names_the_value(make, match):
     with pytest.raises(MultiscaleError, match=match):
         make()
     assert issubclass(MultiscaleError, ValueError) and issubclass(MultiscaleError, FivebarError)
+
+
+def test_secular_terms_name_their_resonance_and_carry_the_textbook_coefficients():
+    """SecularTerm.kind and the coefficients of each resonance of one or two modes against the
+    hand expansion of eta^3 and of the parametric term (Nayfeh & Mook 1979, 4.1-4.2, 5.5):
+    superharmonic gamma Lambda^3 (3 Omega ~ omega), subharmonic 3 gamma Lambda conj(A)^2
+    (Omega ~ 3 omega), principal parametric -P e^{i phi} conj(A) / 2 (Omega ~ 2 omega),
+    combination -P_rs e^{i phi} conj(A_s) / 2 (Omega ~ omega_r + omega_s), backbone 3 gamma
+    A^2 conj(A) and the shift 6 gamma |Lambda|^2 A of a hard harmonic."""
+    import numpy as np
+
+    from fivebar.numerics.modal_equations import Harmonic, ModalSystem, Parametric
+    from fivebar.numerics.multiscale import modulation_equations
+
+    g = -1.0
+    duff = ModalSystem(w=[1.0], zeta=[0.05], gamma=np.full((1, 1, 1, 1), g))
+
+    def by_kind(flow):
+        return {t.kind: t.coefficient for t in flow.terms}
+
+    sup = modulation_equations(duff, [Harmonic(1.02 / 3, [0.3])])
+    L = sup.Lambda[0, 0]
+    k = by_kind(sup)
+    assert set(k) == {"backbone", "frequency shift", "excitation"}
+    assert k["backbone"] == pytest.approx(3 * g) and k["excitation"] == pytest.approx(g * L**3)
+    assert k["frequency shift"] == pytest.approx(6 * g * abs(L) ** 2)
+    sub = modulation_equations(duff, [Harmonic(3.03, [0.3])])
+    assert by_kind(sub)["subharmonic"] == pytest.approx(3 * g * sub.Lambda[0, 0])
+    par = modulation_equations(ModalSystem(w=[1.0], zeta=[0.01]), (), [Parametric(2.02, [[0.2]], 0.3)])
+    assert by_kind(par) == {"parametric": pytest.approx(-0.1 * np.exp(0.3j))}
+    two = ModalSystem(w=[1.0, 1.7], zeta=[0.01, 0.01])
+    P = [[0.0, 0.05], [0.07, 0.0]]
+    comb = modulation_equations(two, (), [Parametric(2.7, P, 0.3)])
+    assert [(t.mode, t.kind) for t in comb.terms] == [(0, "combination (sum)"), (1, "combination (sum)")]
+    assert [t.coefficient for t in comb.terms] == pytest.approx([-0.025 * np.exp(0.3j), -0.035 * np.exp(0.3j)])
+    diff = modulation_equations(two, (), [Parametric(0.7, P, 0.3)])
+    assert {t.kind for t in diff.terms} == {"combination (difference)"}

@@ -133,14 +133,24 @@ def strip_solutions(markdown: str) -> tuple[str, int]:
     return "".join(out), n
 
 
-def strip_notebook_solutions(nb: dict) -> int:
-    """Remove the solutions from the markdown cells of a notebook (in place); return the count.
+#: The tag of a code cell that computes the numbers of the exercises' solutions (glued into
+#: them with myst-nb's ``glue``; README, "Exercises in a chapter"): part of the solutions.
+SOLUTION_TAG = "solution"
 
-    A gated solution whose ``{solution-start}`` and ``{solution-end}`` lie in different cells
-    (code cells between them) is not supported: the book writes each solution inside one
-    markdown cell (README, "Exercises in a chapter"), and such a notebook raises ValueError.
+
+def strip_notebook_solutions(nb: dict) -> int:
+    """Remove the solutions from a notebook (in place); return the count of solution blocks.
+
+    The ``{solution}`` blocks of its markdown cells go, and so do its code cells tagged
+    :data:`SOLUTION_TAG` (the computation of the solutions' numbers), whose outputs would
+    otherwise carry the answers.  A gated solution whose ``{solution-start}`` and
+    ``{solution-end}`` lie in different cells (code cells between them) is not supported: the
+    book writes each solution inside one markdown cell (README, "Exercises in a chapter"), and
+    such a notebook raises ValueError.
     """
     n = 0
+    nb["cells"] = [c for c in nb.get("cells", []) if not (
+        c.get("cell_type") == "code" and SOLUTION_TAG in c.get("metadata", {}).get("tags", []))]
     for k, cell in enumerate(nb.get("cells", [])):
         src = cell.get("source", "")
         text = "".join(src) if isinstance(src, list) else src

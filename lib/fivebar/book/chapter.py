@@ -23,7 +23,9 @@ No equation of the paper is implemented here.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import contextlib
+import warnings
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +34,8 @@ import numpy as np
 from ..errors import FivebarError, InputError, number
 from ..description.params import DEFAULT_PARAMS_PATH, Params, load_params
 
-__all__ = ["CheckFailed", "book_value_check", "differences", "is_book_params", "load", "physics_check"]
+__all__ = ["CheckFailed", "admonition", "book_value_check", "differences", "is_book_params", "load", "physics_check",
+           "warnings_shown"]
 
 
 class CheckFailed(FivebarError, RuntimeError):
@@ -146,3 +149,62 @@ def book_value_check(params: Params, quantity: str, value: Any, stored: Any, rto
         raise CheckFailed(f"book value check failed: {quantity} = {_fmt(value)}, the book's parameters "
                           f"must give {_fmt(stored)} (rtol {rtol:g}, atol {atol:g})")
     return True
+
+
+#: The admonition a warning of each category becomes on the page, and its title.
+_ADMONITIONS = {"ValidityWarning": ("warning", "Outside the model's validity"),
+                "UnstableParametersWarning": ("warning", "Outside the scheme's stable region")}
+
+
+def admonition(text: str, kind: str = "warning", title: str | None = None) -> Any:
+    """A MyST admonition of ``kind`` (``warning``, ``note``, ``important``) with ``title`` and
+    ``text``, as an ``IPython.display.Markdown`` object: shown on the page as the book's own box,
+    in the HTML book and in the PDF.
+
+    >>> admonition("116 of 120 rows are above the yield stress.", title="Outside").data.splitlines()[0]
+    '```{warning} Outside'
+    """
+    from IPython.display import Markdown
+
+    if kind not in ("warning", "note", "important", "caution", "attention", "tip"):
+        raise InputError(f"kind = {kind!r} is not allowed: use warning, note, important, caution, attention or tip")
+    fence = "`" * max(3, 1 + max((len(r) for r in text.split("\n") if set(r) == {"`"}), default=0))
+    head = f"{fence}{{{kind}}}" + (f" {title}" if title else "")
+    return Markdown(f"{head}\n{text}\n{fence}")
+
+
+@contextlib.contextmanager
+def warnings_shown(*categories: type[Warning]) -> Iterator[list]:
+    """Show the warnings a block of a chapter gives as the book's admonitions, not as stderr.
+
+    ::
+
+        with fivebar.book.chapter.warnings_shown():
+            sweep = speed_sweep(setup, speeds)
+
+    The warnings of ``categories`` (default: every warning) raised inside the block are caught;
+    at its end each different message is displayed once, as an admonition whose title names
+    what it means (a :class:`~fivebar.errors.ValidityWarning`: "Outside the model's validity"),
+    with its numbers and without the file, line and source of the code that raised it (which
+    would name the machine's temporary files).  Warnings of other categories pass through.
+    Yields the list of caught warnings.
+    """
+    from IPython.display import display
+
+    cats = tuple(categories) or (Warning,)
+    caught: list = []
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        yield caught
+    seen: list[str] = []
+    for w in rec:
+        if not issubclass(w.category, cats):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            continue
+        caught.append(w)
+        msg = str(w.message)
+        if msg in seen:
+            continue
+        seen.append(msg)
+        kind, title = _ADMONITIONS.get(w.category.__name__, ("warning", w.category.__name__))
+        display(admonition(msg, kind, title))

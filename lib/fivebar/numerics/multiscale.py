@@ -152,6 +152,47 @@ class SecularTerm(NamedTuple):
     detuning: float
     order: int
 
+    @property
+    def kind(self) -> str:
+        r"""What resonance the term expresses, read from its factors (mode :math:`r`, 1-based in
+        the factors):
+
+        * ``"excitation"`` (no factor: ``"1"``): a soft harmonic (the primary resonance
+          :math:`\Omega_j\approx\omega_r`) or a product of forced parts through the nonlinear
+          terms (the superharmonic :math:`\gamma\Lambda^3`, :math:`3\Omega_j\approx\omega_r`);
+        * ``"frequency shift"`` (:math:`A_r`): the linear and forced shift of the frequency;
+        * ``"parametric"`` (:math:`\bar A_r`): the principal parametric resonance
+          :math:`\Omega_P\approx2\omega_r`;
+        * ``"combination (sum)"`` (:math:`\bar A_s`, :math:`s\ne r`): :math:`\Omega_P\approx
+          \omega_r+\omega_s`; ``"combination (difference)"`` (:math:`A_s`): :math:`\Omega_P
+          \approx\omega_r-\omega_s`;
+        * ``"backbone"`` (:math:`A_r^2\bar A_r`): the cubic term's own frequency shift;
+          ``"cross-mode"`` (:math:`A_rA_s\bar A_s`): the shift by another mode's amplitude;
+        * ``"subharmonic"`` (:math:`\bar A_r^2`, with a forced part):
+          :math:`\Omega_j\approx3\omega_r`;
+        * ``"internal"``: any other product of amplitudes (an internal resonance).
+        """
+        r = f"A{self.mode + 1}"
+        c = f"conj({r})"
+        f = [] if self.factors == "1" else self.factors.split()
+        if not f:
+            return "excitation"
+        if len(f) == 1:
+            if f[0] == r:
+                return "frequency shift"
+            if f[0] == c:
+                return "parametric"
+            return "combination (sum)" if f[0].startswith("conj") else "combination (difference)"
+        if sorted(f) == sorted([r, r, c]):
+            return "backbone"
+        if len(f) == 2 and f == [c, c]:
+            return "subharmonic"
+        if len(f) == 3 and f.count(r) == 1 and c not in f:
+            rest = [x for x in f if x != r]
+            if len(rest) == 2 and rest[1] == f"conj({rest[0]})":
+                return "cross-mode"
+        return "internal"
+
 
 class ModeCoefficients(NamedTuple):
     """The one-mode part of :math:`S_r = \\kappa B + 3\\Gamma|B|^2B + f + c\\bar B`."""
