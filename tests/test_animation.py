@@ -86,12 +86,33 @@ def test_show_displays_a_fixed_snippet_and_writes_the_page(steady, tmp_path, mon
     monkeypatch.chdir(tmp_path)
     a = animation.animate_linkage(steady, frames=3, dpi=40)
     b = animation.animate_linkage(steady, scale=50.0, frames=3, dpi=40)
-    out_a = animation.show(a, "anim/x.html").data
+    out_a = animation.show(a, "anim/x.html").html
     page_a = (tmp_path / "anim" / "x.html").read_text()
-    out_b = animation.show(b, "anim/x.html").data
+    out_b = animation.show(b, "anim/x.html").html
     assert (tmp_path / "anim" / "x.html").read_text() != page_a  # the file follows the animation
     assert out_a.replace("500", "50") == out_b.replace("500", "50")  # the snippet only names it
     assert 'src="anim/x.html"' in out_a
+    # the page keeps the frames' aspect on a phone (the iframe's height follows its width)
+    assert "aspect-ratio:" in out_a and "height:auto" in out_a
+
+
+def test_the_printed_book_gets_a_strip_of_frames(steady, tmp_path, monkeypatch):
+    """The PDF cannot play an iframe: the displayed object offers a PNG strip of the frames, which
+    the LaTeX build takes (myst-nb's image/png before text/plain), and a text line that names the
+    animation instead of '<IPython.core.display.HTML object>'."""
+    import io
+
+    import matplotlib.image as mpimg
+
+    monkeypatch.chdir(tmp_path)
+    a = animation.animate_linkage(steady, frames=8, dpi=40)
+    bundle = animation.show(a, "anim/x.html")._repr_mimebundle_()
+    assert set(bundle) == {"text/html", "image/png", "text/plain"}
+    assert bundle["text/plain"].startswith("Animation: ") and "object>" not in bundle["text/plain"]
+    strip = mpimg.imread(io.BytesIO(bundle["image/png"]), format="png")
+    assert strip.shape[1] > 2.5 * strip.shape[0]  # four frames side by side
+    frame = mpimg.imread(io.BytesIO(a.frames[0]), format="png")
+    assert strip.shape[1] >= 2 * frame.shape[1] or strip.shape[1] >= 900
     for bad in ("/tmp/x.html", "../x.html", "anim/x.gif"):
         with pytest.raises(ValueError, match="path = "):
             animation.show(a, bad)

@@ -586,3 +586,25 @@ def test_modal_period_map_is_the_period_map_of_the_modal_equations():
     assert np.abs(Phi - fd).max() < 1e-7
     with pytest.raises(FivebarError, match="whole multiple"):
         modal_period_map(sysm, [Harmonic(1.0, [1, 0]), Harmonic(math.sqrt(2), [1, 0])])
+
+
+def test_jumps_of_a_hardening_and_a_softening_duffing_oscillator():
+    """The forced Duffing oscillator swept in frequency: hardening (alpha > 0) jumps down when
+    the frequency rises past its upper fold and up when it falls past its lower one; softening
+    (alpha < 0) the other way round (Nayfeh & Mook 1979, 4.1.4); the jump lands on the stable
+    orbit of the other leg, shot at the speed (orbits_at: three orbits between the folds)."""
+    from fivebar.numerics.continuation import jumps, orbits_at
+
+    for alpha, lo, hi in ((1.0, 1.0, 1.4), (-0.3, 0.7, 1.0)):
+        f = _duffing(0.05, alpha, 0.1, 100)
+        br = continuation(f, np.zeros(2), lo if alpha > 0 else hi, hi if alpha > 0 else lo, ds=0.05, ds_max=0.3)
+        folds = sorted(b.p for b in br.bifurcations if b.kind == "fold")
+        assert len(folds) == 2
+        mid = orbits_at(br, f, 0.5 * sum(folds))
+        assert len(mid) == 3 and sum(o.stable for o in mid) == 2
+        js = {j.rising: j for j in jumps(br, f, lambda x, p: math.hypot(x[0], x[1] / p))}
+        assert set(js) == {True, False}
+        # either way a rising sweep leaves at the upper fold and a falling one at the lower
+        assert js[True].p == pytest.approx(folds[1]) and js[False].p == pytest.approx(folds[0])
+        assert (js[True].direction, js[False].direction) == (("down", "up") if alpha > 0 else ("up", "down"))
+        assert all(len(j.after) == 1 for j in js.values())

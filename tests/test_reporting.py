@@ -195,7 +195,7 @@ def test_sentence_helpers_say_what_their_examples_say():
     runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS)
     finder = doctest.DocTestFinder()
     tried = 0
-    for f in (rep.percent, rep.change, rep.sci, rep.length_text, rep.ordinal, rep.how_many, rep.certain):
+    for f in (rep.percent, rep.change, rep.sci, rep.significant, rep.length_text, rep.ordinal, rep.how_many, rep.certain):
         for t in finder.find(f, f.__name__, globs=vars(rep)):
             runner.run(t)
             tried += len(t.examples)

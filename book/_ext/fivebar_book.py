@@ -330,12 +330,13 @@ class FivebarTable(SphinxDirective):
 
 #: An equation of the paper as cited: (2.7), (A.6); a range (A.9)-(A.12) cites every number
 #: in it.  Sections 2-4 and the appendix are the paper's numbered equations.
-_EQ = r"\(\s*([234A])\s*\.\s*(\d{1,2})\s*\)"
+_EQ = r"\(\s*P?([234A])\s*\.\s*(\d{1,2})\s*\)"
 _CITE = re.compile(_EQ + r"(?:\s*(?:-|–|—|to)\s*" + _EQ + r")?")
 
 
 def cited_equations(text: str) -> set[str]:
-    """Equation numbers ``'A.6'`` cited in ``text`` as ``(A.6)``; ranges are expanded."""
+    """Equation numbers ``'A.6'`` cited in ``text`` as ``(A.6)`` or, as the book shows the paper's
+    numbers, ``(PA.6)``; ranges are expanded."""
     found: set[str] = set()
     for m in _CITE.finditer(text or ""):
         sec, first = m.group(1), int(m.group(2))

@@ -289,12 +289,26 @@ def _version() -> str:
 
 
 def _title_page(edition: str) -> str:
-    """The LaTeX title page: title, author, version and edition (``latex_elements['maketitle']``)."""
+    """The LaTeX title page (``latex_elements['maketitle']``): title, authors, version and
+    edition, and on its back the repository, the licence and how to cite, all from
+    ``CITATION.cff`` (as the HTML book's front page, ``{title-page}``)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import fivebar_apparatus as app_
+
     config = yaml.safe_load((ROOT / "_config.yml").read_text())
+    cff = app_.citation()
     title, _, subtitle = str(config["title"]).partition(": ")
-    esc = lambda t: t.replace("&", r"\&").replace("%", r"\%").replace("_", r"\_")  # noqa: E731
+
+    def esc(t: str) -> str:
+        t = t.replace("\\", r"\textbackslash{}")
+        for a, b in (("&", r"\&"), ("%", r"\%"), ("_", r"\_"), ("#", r"\#"), ("$", r"\$"), ("{", r"\{"), ("}", r"\}")):
+            t = t.replace(a, b)
+        return re.sub(r"\*([^*]+)\*", r"\\emph{\1}", t)
     extra = ("Student edition: the exercises without their solutions" if edition == "student"
              else "Instructor edition: the exercises with their solutions")
+    repo = (r"\url{%s}" % cff["repository-code"]) if cff.get("repository-code") else \
+        "the git repository this book is built from (its address goes into CITATION.cff when it is published)"
+    cite = esc(app_.book_citation(cff))
     return r"""
 \begin{titlepage}
 \centering
@@ -311,10 +325,20 @@ def _title_page(edition: str) -> str:
 {\large Version %s\par}
 \vspace{0.5em}
 {\normalsize %s\par}
-\vspace{2em}
-{\small Code: BSD-3-Clause. Text and figures: CC BY 4.0.\par}
 \end{titlepage}
-""" % (esc(title), esc(subtitle or ""), esc(str(config.get("author", ""))), _version(), extra)
+\thispagestyle{empty}
+\noindent\textbf{Authors:} %s\par\medskip
+\noindent\textbf{Repository:} %s\par\medskip
+\noindent\textbf{Licence:} code BSD-3-Clause; text and figures CC BY 4.0.\par\medskip
+\noindent\textbf{How to cite:} %s\par
+\noindent and the paper it reproduces: R.-G. Wang, G.-W. Cai, X.-R. Zhou, An evolutionary analytic method
+of multi-DOF nonlinear coupling dynamic model for controllable close-chain linkage mechanism system,
+\emph{Mathematical Problems in Engineering} 2011, Article ID 254547, doi:10.1155/2011/254547.
+Both are in CITATION.cff.\par\medskip
+\noindent\textbf{Equation numbers:} (P2.7) is equation (2.7) of the paper; (8.3) is the third numbered
+equation of chapter 8 of this book.\par
+\clearpage
+""" % (esc(title), esc(subtitle or ""), esc(app_.authors(cff)), _version(), extra, esc(app_.authors(cff)), repo, cite)
 
 
 def build_latex(edition: str = "instructor") -> Path:

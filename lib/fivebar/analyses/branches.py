@@ -40,7 +40,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..numerics.continuation import Branch, ContinuationError, continuation, iterated_map, settle, switch_period_doubling
+from ..numerics.continuation import (Branch, ContinuationError, Jump, continuation, iterated_map, jumps, orbits_at,
+                                     settle, switch_period_doubling)
 from ..errors import FivebarError, InputError, ValidityWarning, checked, flag, number
 from ..numerics.newmark import NewtonConvergenceError
 from ..description.params import Params
@@ -288,36 +289,27 @@ class LinkageBranch:
         raise InputError(f"p = {p!r} is not allowed: the branch covers {ps.min():.6g} to {ps.max():.6g}")
 
     def orbits_at(self, p: float, segments: Any = None, tol: float = 1e-10) -> list[PeriodicOrbit]:
-        """Every orbit of the branch at the parameter value ``p``, shot there.
+        """Every orbit of the branch at the parameter value ``p``, shot there
+        (:func:`fivebar.numerics.continuation.orbits_at`).
 
-        ``[o.stable for o in branch.orbits_at(197.0)]``: one orbit for each segment of the branch
-        (between two consecutive points) that contains ``p`` (of ``segments``, the indices of
-        their first points; default all), shot at ``p`` from the state interpolated between the
-        segment's two points, else from the nearer point, else the farther one; an orbit equal
-        (to 1e-6 of its largest entry) to one already found is not repeated.  Unlike the points
-        of the branch, whose places depend on the step control, these orbits depend on ``p``
-        alone.  Between two folds there are three; a segment whose orbit cannot be shot is left
-        out (the list may be empty where the branch does not reach ``p``).
+        ``[o.stable for o in branch.orbits_at(197.0)]``: one orbit for each segment of the
+        branch that contains ``p`` (of ``segments``, the indices of their first points; default
+        all).  Unlike the points of the branch, whose places depend on the step control, these
+        orbits depend on ``p`` alone.  Between two folds there are three; the list may be empty
+        where the branch does not reach ``p``.
         """
-        p = number("p", p)
-        ps, pts = self.p, self.branch.points
-        out: list[PeriodicOrbit] = []
-        for i in (range(len(ps) - 1) if segments is None else segments):
-            lo, hi = sorted((ps[i], ps[i + 1]))
-            if not (lo <= p <= hi and hi > lo):
-                continue
-            w = (p - ps[i]) / (ps[i + 1] - ps[i])
-            xa, xb = pts[i].x, pts[i + 1].x
-            orb = None
-            for x in ((1 - w) * xa + w * xb, *((xa, xb) if w < 0.5 else (xb, xa))):
-                try:
-                    orb = shoot(self.period_map, x, p, tol=tol, scale=self.branch.scale)
-                    break
-                except FivebarError:
-                    orb = None
-            if orb is not None and not any(np.abs(orb.x - o.x).max() <= 1e-6 * np.abs(o.x).max() for o in out):
-                out.append(orb)
-        return out
+        return orbits_at(self.branch, self.period_map, number("p", p), segments, tol)
+
+    def jumps(self, link: str | None = None) -> list[Jump]:
+        """Where a slow sweep of the parameter up or down leaves the branch, and which way
+        the response jumps (:func:`fivebar.numerics.continuation.jumps`): one
+        :class:`~fivebar.numerics.continuation.Jump` per fold that ends a stable leg, its
+        ``before`` and ``after`` the transverse midpoint peak-to-peak (mm) of ``link`` (default
+        the first coupler, L2), ``rising`` whether the sweep meets it going up.  A hardening
+        oscillator jumps down going up and up going down."""
+        base = self.period_map if isinstance(self.period_map, LinkagePeriodMap) else self.period_map.base
+        link = _link(base.setup, link)
+        return jumps(self.branch, self.period_map, lambda x, p: base.steady(x, p).peak_to_peak_mm(link))
 
     def section_mm(self, link: str | None = None) -> Array:
         """The Poincaré section of every point: the transverse midpoint deflection (mm) of

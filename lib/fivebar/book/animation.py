@@ -39,6 +39,7 @@ __all__ = [
     "animate_linkage",
     "animate_modes",
     "show",
+    "Shown",
     "nice_scale",
 ]
 
@@ -402,25 +403,70 @@ def animate_modes(params: Params, n_modes: int = 3, frames: int = 36, dpi: int =
     return Animation(png, interval_ms, f"The {n} lowest modes along one crank turn", w, h)
 
 
-def show(anim: Animation, path: str | Path, width: int | None = None):
-    """Write ``anim`` to ``path`` (relative to the notebook) and display it in an iframe.
+class Shown:
+    """What :func:`show` displays: the player in an ``<iframe>`` on a web page, a strip of its
+    frames in a printed book (the PDF), one line of text elsewhere.
 
-    The displayed HTML names only the file and the frame size, so it is the same on every
-    run (nbval compares it strictly).  The book's build copies the file next to the page
-    (``book/_ext/fivebar_teaching.py``).  Returns an ``IPython.display.HTML``.
+    Its mime bundle (``_repr_mimebundle_``) holds ``text/html`` (the iframe, whose size keeps
+    the frames' aspect on any screen), ``image/png`` (:meth:`strip`: a few frames side by side,
+    which the book's LaTeX build prints where the animation is) and ``text/plain`` (a line that
+    names the animation, not the object's repr).  The HTML names only the file and the frame
+    size, so it is the same on every run; the strip is an image, which the notebooks' strict
+    comparison leaves out.
     """
-    from IPython.display import HTML
 
+    def __init__(self, anim: Animation, src: str, width: int, frames_in_strip: int = 4) -> None:
+        self.anim, self.src, self.width, self.count = anim, src, int(width), int(frames_in_strip)
+
+    @property
+    def html(self) -> str:
+        """The iframe and a link to the animation's own page."""
+        a = self.anim
+        h = int(round(a.height * self.width / a.width)) + 44  # the player's button bar
+        return (f'<iframe class="fivebar-animation" src="{html.escape(self.src)}" width="{self.width}" height="{h}" '
+                f'style="border:0; max-width:100%; height:auto; aspect-ratio:{self.width} / {h}" loading="lazy" '
+                f'title="{html.escape(a.title)}"></iframe>\n'
+                f'<p class="fivebar-animation-link"><a href="{html.escape(self.src)}">Open the animation on its own '
+                'page</a></p>')
+
+    def strip(self) -> bytes:
+        """PNG: ``frames_in_strip`` frames of the animation, evenly spaced over it, side by side."""
+        import matplotlib
+        import matplotlib.image as mpimg
+        from matplotlib.figure import Figure
+
+        n = max(1, min(self.count, len(self.anim.frames)))
+        picks = [round(k * len(self.anim.frames) / n) for k in range(n)]
+        fig = Figure(figsize=(6.5, 6.5 / n * self.anim.height / self.anim.width + 0.35), dpi=150)
+        for k, i in enumerate(picks):
+            ax = fig.add_subplot(1, n, k + 1)
+            ax.imshow(mpimg.imread(io.BytesIO(self.anim.frames[i]), format="png"))
+            ax.set_axis_off()
+            ax.set_title(f"frame {i + 1} of {len(self.anim.frames)}", fontsize=8)
+        fig.subplots_adjust(left=0.01, right=0.99, bottom=0.01, top=0.9, wspace=0.04)
+        buf = io.BytesIO()
+        with matplotlib.rc_context({"savefig.bbox": "tight"}):
+            fig.savefig(buf, format="png")
+        return buf.getvalue()
+
+    def _repr_mimebundle_(self, include=None, exclude=None):
+        return {"text/html": self.html, "image/png": self.strip(),
+                "text/plain": f"Animation: {self.anim.title} ({len(self.anim.frames)} frames)"}
+
+
+def show(anim: Animation, path: str | Path, width: int | None = None) -> Shown:
+    """Write ``anim`` to ``path`` (relative to the notebook) and display it.
+
+    On the web page an iframe plays it (its size keeps the frames' aspect on a phone too); in
+    the PDF a strip of its frames stands in for it (:class:`Shown`).  The displayed HTML names
+    only the file and the frame size, so it is the same on every run (nbval compares it
+    strictly).  The book's build copies the file next to the page
+    (``book/_ext/fivebar_teaching.py``).
+    """
     path = Path(path)
     if path.is_absolute() or ".." in path.parts or path.suffix != ".html":
         raise InputError(f"path = {str(path)!r} is not allowed: give a relative path ending in .html "
                          "below the notebook's folder (e.g. 'anim/linkage.html')")
     anim.save(path)
     w = anim.width if width is None else int(width)
-    h = int(round(anim.height * w / anim.width)) + 44  # the player's button bar
-    src = path.as_posix()
-    return HTML(
-        f'<iframe class="fivebar-animation" src="{html.escape(src)}" width="{w}" height="{h}" '
-        f'style="border:0; max-width:100%" loading="lazy" title="{html.escape(anim.title)}"></iframe>\n'
-        f'<p class="fivebar-animation-link"><a href="{html.escape(src)}">Open the animation on its own page</a></p>'
-    )
+    return Shown(anim, path.as_posix(), w)

@@ -35,6 +35,7 @@ __all__ = [
     "ordinal",
     "percent",
     "sci",
+    "significant",
     "ERRATA_FIELDS",
     "ERRATA_MATH_FIELDS",
     "ReportError",
@@ -279,6 +280,15 @@ def change(pct: float) -> str:
     """
     pct = float(pct)
     return f"{pct:+.3g} %" if abs(pct) < 100 else f"a factor {1 + pct / 100:.3g}"
+
+
+def significant(x: float, digits: int = 2) -> str:
+    """``x`` to ``digits`` significant digits, without an exponent.
+
+    >>> significant(0.0123456), significant(12345.6), significant(1.5, 3)
+    ('0.012', '12000', '1.5')
+    """
+    return f"{float(f'{float(x):.{int(digits)}g}'):g}" if abs(float(x)) < 1e16 else f"{float(x):.{int(digits)}g}"
 
 
 def sci(x: float, digits: int = 1) -> str:

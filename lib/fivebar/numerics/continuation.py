@@ -126,6 +126,9 @@ __all__ = [
     "continuation",
     "Settled",
     "iterated_map",
+    "Jump",
+    "jumps",
+    "orbits_at",
     "settle",
     "switch_period_doubling",
 ]
@@ -1088,3 +1091,111 @@ def settle(period_map: PeriodMap, orbit: PeriodicOrbit, p: float | None = None, 
     except FivebarError:
         pass  # the samples looked periodic but no orbit is shot from them: not settled
     return Settled("no periodic motion", None, xs)
+
+
+def orbits_at(branch: Branch, period_map: PeriodMap, p: float, segments=None, tol: float = 1e-10) -> list[PeriodicOrbit]:
+    """Every orbit of ``branch`` at the parameter ``p``, shot there.
+
+    One orbit for each segment of the branch (between consecutive points) that contains ``p``
+    (of ``segments``, the indices of their first points; default all): shot at ``p`` from the
+    state interpolated between the segment's ends, else from the nearer end, else the farther;
+    an orbit equal (to 1e-6 of its largest entry) to one already found is not repeated, and a
+    segment whose orbit cannot be shot is left out.  Unlike the branch's points, whose places
+    depend on the step control, the orbits depend on ``p`` alone: where the branch has folded,
+    there are several (three between two folds).
+    """
+    p = float(p)
+    pts = branch.points
+    ps = np.array([q.p for q in pts])
+    out: list[PeriodicOrbit] = []
+    for i in (range(len(ps) - 1) if segments is None else segments):
+        lo, hi = sorted((ps[i], ps[i + 1]))
+        if not (lo <= p <= hi and hi > lo):
+            continue
+        w = (p - ps[i]) / (ps[i + 1] - ps[i])
+        xa, xb = pts[i].x, pts[i + 1].x
+        orb = None
+        for x in ((1 - w) * xa + w * xb, *((xa, xb) if w < 0.5 else (xb, xa))):
+            try:
+                orb = shoot(period_map, x, p, tol=tol, scale=branch.scale)
+                break
+            except FivebarError:
+                orb = None
+        if orb is not None and not any(np.abs(orb.x - o.x).max() <= 1e-6 * np.abs(o.x).max() for o in out):
+            out.append(orb)
+    return out
+
+
+@dataclass
+class Jump:
+    """Where a slow sweep of the parameter leaves the branch at a fold (:func:`jumps`).
+
+    Attributes
+    ----------
+    p : float
+        The fold.
+    rising : bool
+        True: met when the parameter rises past ``p`` (the stable leg lies below ``p``); False:
+        when it falls.
+    before : float
+        The measure of the orbit at the fold.
+    after : list of float
+        The measures of the stable orbits of the branch just past the fold, where the motion
+        lands (empty if the branch has none there: it may land off the branch).
+    """
+
+    p: float
+    rising: bool
+    before: float
+    after: list
+
+    @property
+    def direction(self) -> str:
+        """"up" or "down": the measure grows or falls in the jump (to the nearest stable orbit
+        past the fold); "off the branch" if the branch has no stable orbit there."""
+        if not self.after:
+            return "off the branch"
+        target = min(self.after, key=lambda a: abs(a - self.before))
+        return "up" if target > self.before else "down"
+
+
+def jumps(branch: Branch, period_map: PeriodMap, measure, dp: float | None = None) -> list[Jump]:
+    r"""The jumps of a slow sweep of the parameter along a branch: one at every fold that ends a
+    stable leg.
+
+    ``[(j.p, j.rising, j.direction) for j in jumps(br, f, lambda x, p: abs(x[0]))]``.
+
+    At a fold the stable leg that reaches it (the neighbouring point of the branch that is
+    stable) ends; a sweep that goes on past the fold in the same direction must leave for
+    another stable orbit.  The orbits of the branch at ``p_fold +- dp`` (the side past the fold,
+    :func:`orbits_at`) are shot and the stable ones kept; ``measure(x, p)`` (a number: an
+    amplitude, a peak-to-peak) compares them with the fold's orbit.  A hardening oscillator
+    jumps down when the parameter (the forcing frequency) rises past its upper fold and up when
+    it falls past its lower one; a softening one the other way round.
+
+    Parameters
+    ----------
+    branch : Branch
+    period_map : PeriodMap
+        The map the branch follows.
+    measure : callable ``(x, p) -> float``
+    dp : float, optional
+        How far past the fold (default 1e-4 of the branch's parameter range).
+    """
+    ps = np.array([q.p for q in branch.points])
+    if dp is None:
+        dp = 1e-4 * max(float(ps.max() - ps.min()), 1e-12)
+    out = []
+    for b in sorted((b for b in branch.bifurcations if b.kind == "fold"), key=lambda b: b.index):
+        before, after_fold = branch.points[b.index], branch.points[b.index + 1]
+        if not (before.stable or after_fold.stable):
+            continue
+        # the branch arrives at the fold with p rising (a maximum of p) or falling (a minimum):
+        # the sign of the tangent's p-component at the point before it (p at the points beside a
+        # fold may differ from the fold's by less than its location's tolerance)
+        maximum = before.tangent[-1] > 0
+        side = 1.0 if maximum else -1.0  # the legs lie below a maximum: a rising sweep meets it
+        past = b.p + side * dp
+        after = [float(measure(o.x, past)) for o in orbits_at(branch, period_map, past) if o.stable]
+        out.append(Jump(float(b.p), side > 0, float(measure(b.x, b.p)), after))
+    return out
