@@ -437,7 +437,8 @@ class Shown:
 
         n = max(1, min(self.count, len(self.anim.frames)))
         picks = [round(k * len(self.anim.frames) / n) for k in range(n)]
-        fig = Figure(figsize=(6.5, 6.5 / n * self.anim.height / self.anim.width + 0.35), dpi=150)
+        fig = Figure(figsize=(6.5, 6.5 / n * self.anim.height / self.anim.width + 0.35), dpi=150,
+                     layout="none")  # the book's style turns constrained layout on; placed by hand here
         for k, i in enumerate(picks):
             ax = fig.add_subplot(1, n, k + 1)
             ax.imshow(mpimg.imread(io.BytesIO(self.anim.frames[i]), format="png"))
