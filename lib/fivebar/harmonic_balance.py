@@ -58,23 +58,28 @@ time-domain tangent projected:
 
 where :math:`\mathbf P[\mathbf A_k]\boldsymbol\Gamma` is the block matrix
 :math:`\sum_k P_{jk}\Gamma_{kl}\mathbf A_k` (one :math:`n\times n` block per pair of basis
-functions), damped by halving a step that does not reduce the residual, and started, where
-Newton's method from the linear solution fails, by a continuation in the load
-(:math:`\mathbf F` scaled from 0 to 1).
+functions, assembled from the discrete Fourier sums of the samples :math:`\mathbf A_k` by the
+product formulas of cos and sin), damped by Deuflhard's natural monotonicity test.  Newton's
+method starts from a given series, else from the linear solution; where it fails there (a
+strongly nonlinear response far from the linear one), the solution is followed from the
+unloaded one by continuation in a load factor from 0 to 1 (:func:`fivebar.continuation.continuation`
+with the balance as a residual problem: around the folds in the load that a hardening resonance
+has) and polished by Newton's method.
 
-**Number of harmonics** (``tol``).  The error of :math:`\mathbf u_H` is estimated from *the
-residual of the time-domain equation between the samples*: the residual of the converged
-series is evaluated on :math:`2N` samples, where it has the components the Galerkin condition
-on :math:`N` samples does not see (harmonics above :math:`H`, and the aliasing of the retained
-ones), and one Newton step is taken on them -- in the retained harmonics with the Jacobian
-above, in each harmonic :math:`h > H` with the period-averaged dynamic stiffness
-:math:`\bar{\mathbf K} + \bar{\mathbf K}_t + ih\Omega\bar{\mathbf C} - (h\Omega)^2\bar{\mathbf M}`
-(block Jacobi: the coupling of the neglected harmonics through the time variation is left
-out, a second-order term).  The estimate is the largest change of a measured quantity (default
-the displacements; the caller may give its quantity of interest) relative to its peak-to-peak
-value.  With ``tol`` the number of harmonics grows from ``harmonics`` until the estimate is at
-most ``tol``; the next :math:`H` is the smallest of :math:`1.25H, 1.5H, 2H, 3H` whose
-remaining estimated correction (the harmonics above it) is at most ``tol / 2``.
+**Number of harmonics** (``tol``).  The error of :math:`\mathbf u_H` is estimated by *the
+residual of the time-domain equation between the samples*: the series, padded with zeros, is put
+into the balance with :math:`H_e = H + \max(\lceil H/2\rceil, 2)` harmonics on
+:math:`6H_e + 2` samples, where its residual has the components the Galerkin condition with
+:math:`H` harmonics does not see, and one Newton step of that balance is taken,
+:math:`\delta\hat{\mathbf u} = -\mathbf J_{H_e}^{-1}\mathbf R_{H_e}` (the full Jacobian: the
+coupling of the neglected harmonics to the retained ones through the time-varying matrices and
+the nonlinear force is kept; a period-averaged, harmonic-by-harmonic estimate underestimates the
+error of the linkage three hundredfold, its modes' shapes turning with the links).  The estimate
+is the largest change of a measured quantity over the samples (default the displacements; the
+caller may give its quantity of interest) relative to its peak-to-peak value.  With ``tol``, H
+grows from ``harmonics`` until the estimate is at most ``tol``: to :math:`H + 1` or
+:math:`\lceil 1.25H\rceil` when the correction above them is at most ``tol / 2``, else to
+:math:`H_e`, each H started from the last correction.
 
 **Stability by Hill's method** (Lazarus & Thomas, C. R. Mécanique 338 (2010) 510-517).  A
 perturbation :math:`\delta\mathbf u = e^{\lambda t}\mathbf p(t)`, :math:`\mathbf p` periodic
@@ -90,22 +95,28 @@ problem
     \qquad \hat{\mathbf M} = \mathbf P[\mathbf M_k]\boldsymbol\Gamma,\
     \hat{\mathbf C} = \mathbf P[\mathbf C_k]\boldsymbol\Gamma ,
 
-solved as a linear one of size :math:`2n(2H+1)` (Hill's matrix).  Its eigenvalues are the
-Floquet exponents, each repeated in :math:`2H+1` copies :math:`\lambda + ik\Omega` (the same
-multiplier :math:`e^{\lambda T}`), of which those near the truncation are inaccurate.
-*Selection criterion* (after Bentvelsen & Lazarus, Nonlinear Dyn. 91 (2018) 1349-1370: sort
-by the eigenvectors, not by the imaginary parts, which fails for modes far above
-:math:`\Omega`): the centroid :math:`m = \sum_h h\,|\hat{\mathbf p}_h|^2 / \sum_h
-|\hat{\mathbf p}_h|^2` of each eigenvector's energy over the complex harmonics
-:math:`h = -H..H` is computed; the copy :math:`k` of an exponent has centroid :math:`m - k`.
-The :math:`2n` exponents are taken greedily in increasing :math:`|m|` (the best-resolved copy
-first), skipping an eigenvalue that is a copy of one already taken (:math:`\lambda' \approx
-\lambda + ik\Omega` with :math:`k = \operatorname{round}(m - m') \ne 0`).  The multipliers are
-:math:`\mu = e^{\lambda T}`; the orbit is asymptotically stable if all lie inside the unit
+solved as a linear one of size :math:`2n(2H+1)` (Hill's matrix; every DOF scaled by the root of
+its mean mass, as the mass of a stiff model is too ill-conditioned to invert unscaled).  Its
+eigenvalues are the Floquet exponents, each in :math:`2H+1` copies :math:`\lambda + ik\Omega`
+(the same multiplier :math:`e^{\lambda T}`), of which those near the truncation are inaccurate,
+and, where H does not resolve a Floquet form, eigenvalues that belong to no exponent.
+*Selection criterion* (after Bentvelsen & Lazarus, Nonlinear Dyn. 91 (2018) 1349-1370: sort by
+the eigenvectors, not by the imaginary parts, which fails for modes far above :math:`\Omega`):
+each eigenvector's mass-weighted energy :math:`w_h` over the complex harmonics
+:math:`h = -H..H` (normalised to sum 1) has the centroid :math:`m = \sum_h h w_h` and the
+spread :math:`s = \sum_h h^2 w_h`; the copy :math:`k` of an exponent has the centroid
+:math:`m - k`.  The :math:`2n` exponents are taken in increasing :math:`s` (the best-resolved,
+centred Floquet form first; an unresolved eigenvector spreads over all harmonics), skipping an
+eigenvalue that is a copy of one already taken (within :math:`0.05\Omega` of
+:math:`\lambda + ik\Omega`, :math:`k = \operatorname{round}(m - m') \ne 0`).  The multipliers
+are :math:`\mu = e^{\lambda T}`; the orbit is asymptotically stable if all lie inside the unit
 circle.  A monodromy matrix follows from the selected Floquet forms,
 :math:`\boldsymbol\Phi = \mathbf X_0\,\operatorname{diag}(\mu)\,\mathbf X_0^{-1}`, the columns
 of :math:`\mathbf X_0` the states :math:`(\mathbf p(0), \dot{\mathbf p}(0) + \lambda\mathbf p(0))`
-(for :func:`fivebar.continuation.continuation` of a :class:`HarmonicBalanceFamily`).
+(for :func:`fivebar.continuation.continuation` of a :class:`HarmonicBalanceFamily`).  Hill's
+method converges with the harmonics of the *Floquet forms*, which may need many more than the
+response (a mode whose frequency varies strongly over the period has a broad Floquet form);
+:meth:`HarmonicBalanceSolution.hill` takes its harmonics as an argument.
 
 This module imports nothing of the linkage (like :mod:`fivebar.newmark`); the linkage's glue is
 :mod:`fivebar.hb_linkage`.  Dense linear algebra (numpy, scipy): the published harmonic-balance
