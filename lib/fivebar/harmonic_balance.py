@@ -77,8 +77,8 @@ the nonlinear force is kept; a period-averaged, harmonic-by-harmonic estimate un
 error of the linkage three hundredfold, its modes' shapes turning with the links).  The estimate
 is the largest change of a measured quantity over the samples (default the displacements; the
 caller may give its quantity of interest) relative to its peak-to-peak value.  With ``tol``, H
-grows from ``harmonics`` until the estimate is at most ``tol``: to :math:`H + 1` or
-:math:`\lceil 1.25H\rceil` when the correction above them is at most ``tol / 2``, else to
+grows from ``harmonics`` until the estimate is at most ``tol``: to the smallest H' from
+:math:`\lceil 1.2H\rceil` whose part of the correction above H' is at most ``tol / 4``, else to
 :math:`H_e`, each H started from the last correction.
 
 **Stability by Hill's method** (Lazarus & Thomas, C. R. Mécanique 338 (2010) 510-517).  A
@@ -731,7 +731,13 @@ def _relative(measure, t, U, dU) -> float:
     return float(np.abs(y1 - y0).max()) / max(p2p, 1e-300)
 
 
-def _estimate(res: _Residual, sol: HarmonicBalanceSolution, measure, fine: _Residual | None = None) -> dict:
+#: the next H is the smallest (from 1.2 H) whose remaining estimated correction is at most this
+#: fraction of tol (else H_e): a margin, as the one Newton step underestimates the change
+_NEXT_MARGIN = 0.25
+
+
+def _estimate(res: _Residual, sol: HarmonicBalanceSolution, measure, fine: _Residual | None = None,
+              tol: float | None = None) -> dict:
     """One Newton step of the balance with 2 H harmonics from the solution (module docstring):
     ``{"estimate": e, "remaining": {H': e'}, "start": the corrected coefficients (2 (2H) + 1, n),
     "fine": the residual at 2 H}``."""
@@ -751,11 +757,13 @@ def _estimate(res: _Residual, sol: HarmonicBalanceSolution, measure, fine: _Resi
     U = G @ x.reshape(2 * He + 1, n)
     est = _relative(measure, t, U, G @ d) if np.all(np.isfinite(d)) else math.inf
     remaining = {}
-    for Hn in sorted({math.ceil(1.25 * H), H + 1}):
-        if H < Hn < He:
+    if np.all(np.isfinite(d)):
+        for Hn in range(max(H + 1, math.ceil(1.2 * H)), He):
             dn = d.copy()
             dn[:2 * Hn + 1] = 0.0
-            remaining[Hn] = _relative(measure, t, U, G @ dn) if np.all(np.isfinite(d)) else math.inf
+            remaining[Hn] = _relative(measure, t, U, G @ dn)
+            if tol is not None and remaining[Hn] <= _NEXT_MARGIN * tol:
+                break
     return {"estimate": est, "remaining": remaining, "start": x.reshape(2 * He + 1, n) + d, "fine": fine}
 
 
@@ -845,7 +853,7 @@ def harmonic_balance(
                                       None, list(path), res, J, lu)
         if tol is None:
             return sol
-        est = _estimate(res, sol, measure)
+        est = _estimate(res, sol, measure, tol=tol)
         tried.append((H, est["estimate"]))
         if est["estimate"] <= tol:
             sol.accuracy = {"tol": tol, "estimate": est["estimate"], "harmonics": H, "tried": tried,
@@ -857,7 +865,7 @@ def harmonic_balance(
             raise HarmonicBalanceError(
                 f"no number of harmonics up to max_harmonics = {max_harmonics} reaches tol = {tol:g} "
                 f"(H, estimate: {', '.join(f'{h}: {e:.2e}' for h, e in tried)}); give a larger tol or max_harmonics")
-        ok = [h for h, e in sorted(est["remaining"].items()) if e <= 0.5 * tol]
+        ok = [h for h, e in sorted(est["remaining"].items()) if e <= _NEXT_MARGIN * tol]
         H = min(max_harmonics, ok[0] if ok else est["fine"].H)
         guess = est["start"]
         if est["fine"].H == H and samples is None:

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .harmonic_balance import HarmonicBalanceSolution, PeriodicSamples, harmonic_balance, samples_for
+from .errors import InputError, InputTypeError
 from .params import Params
 from .response import Response
 from .setup import Setup, as_setup, min_steps_per_period
@@ -171,7 +172,7 @@ class HarmonicBalanceState(SteadyState):
 
 
 def harmonic_balance_steady_state(setup: Setup | Params, tol: float | None = None,
-                                  harmonics: int | None = None) -> HarmonicBalanceState:
+                                  harmonics: int | None = None, start: Any = None) -> HarmonicBalanceState:
     """The periodic steady state of a set-up by harmonic balance.
 
     ``fivebar.steady_state(setup, method="harmonic_balance", tol=1e-4)`` calls this.  H starts
@@ -180,14 +181,31 @@ def harmonic_balance_steady_state(setup: Setup | Params, tol: float | None = Non
     couplers is at most ``tol`` of their peak-to-peak value
     (:func:`fivebar.harmonic_balance.harmonic_balance`).  The result is sampled at the set-up's
     S + 1 times of the period (from the Fourier series).
+
+    ``start``: a warm start, explicit (a result depends on its inputs alone): the
+    :class:`HarmonicBalanceState` of the same problem at a neighbouring speed, whose Fourier
+    coefficients, scaled by the square of the speed ratio (as the inertial load), start Newton's
+    method at its number of harmonics (at least ``harmonics``); without it Newton's method starts
+    from the nonlinear quasi-static deflection.  With ``tol`` a warm start may end at another H
+    than a cold one, both within ``tol``.
     """
     s = as_setup(setup)
     system = LinkageSystem(s)
     H0 = int(s.params.fourier_terms) if harmonics is None else int(harmonics)
     # the samples N = 6 H + 2 must resolve the load of (2.10): at least 2 m + 1
     H0 = max(H0, -(-(min_steps_per_period(s.params) - 2) // 6))
-    start = None if not s.nonlinear else system.quasi_static(H0)
-    sol: HarmonicBalanceSolution = harmonic_balance(system, H0, tol=tol, measure=system.measure, start=start)
+    if start is not None:
+        if not isinstance(start, HarmonicBalanceState):
+            raise InputTypeError(f"start = {type(start).__name__} is not allowed: give the HarmonicBalanceState of a "
+                                 "neighbouring speed (fivebar.steady_state(..., method='harmonic_balance'))")
+        if start.dynamics.n != system.n:
+            raise InputError(f"start has {start.dynamics.n} DOFs and the set-up {system.n}: give a state of the same "
+                             "model (mesh, motors) at another speed")
+        H0 = max(H0, start.solution.harmonics)
+        guess = start.solution.coefficients * (s.crank_speed_rpm / start.setup.crank_speed_rpm) ** 2
+    else:
+        guess = None if not s.nonlinear else system.quasi_static(H0)
+    sol: HarmonicBalanceSolution = harmonic_balance(system, H0, tol=tol, measure=system.measure, start=guess)
     dyn = s.dynamics()
     t = np.arange(dyn.steps_per_period + 1) * dyn.dt
     acc = None if sol.accuracy is None else dict(sol.accuracy, method="harmonic_balance")
