@@ -96,7 +96,7 @@ class LinkageSystem:
         c[2::2] = 2.0 / N * np.sin(np.outer(h, tau)) @ U
         return c
 
-    def measure(self, t: NDArray, U: NDArray) -> NDArray:
+    def midpoints_mm(self, t: NDArray, U: NDArray) -> NDArray:
         """The transverse midpoint deflections (mm) of the couplers (Figure 6: L2, L3) at times
         t (s) of the displacements U (N, n): the quantity whose accuracy ``tol`` asks."""
         dyn = self.setup.dynamics()
@@ -164,7 +164,7 @@ class HarmonicBalanceState(SteadyState):
         if self.accuracy is not None:
             return float(self.accuracy["estimate"])
         if "estimate" not in self._cache:
-            self._cache["estimate"] = self.solution.estimate(LinkageSystem(self.setup).measure)["estimate"]
+            self._cache["estimate"] = self.solution.estimate(LinkageSystem(self.setup).midpoints_mm)["estimate"]
         return float(self._cache["estimate"])
 
     def _outside(self) -> list[str]:
@@ -205,7 +205,7 @@ def harmonic_balance_steady_state(setup: Setup | Params, tol: float | None = Non
         guess = start.solution.coefficients * (s.crank_speed_rpm / start.setup.crank_speed_rpm) ** 2
     else:
         guess = None if not s.nonlinear else system.quasi_static(H0)
-    sol: HarmonicBalanceSolution = harmonic_balance(system, H0, tol=tol, measure=system.measure, start=guess)
+    sol: HarmonicBalanceSolution = harmonic_balance(system, H0, tol=tol, measure=system.midpoints_mm, start=guess)
     dyn = s.dynamics()
     t = np.arange(dyn.steps_per_period + 1) * dyn.dt
     acc = None if sol.accuracy is None else dict(sol.accuracy, method="harmonic_balance")
