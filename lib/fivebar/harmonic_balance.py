@@ -137,7 +137,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import ComputationError, InputError, InputTypeError, number
+from .errors import ComputationError, InputError, InputTypeError, memory, number
 
 __all__ = [
     "HarmonicBalanceError",
@@ -337,6 +337,11 @@ class _Residual:
 
     def __init__(self, system: PeriodicSystem, H: int, N: int, omega: float | None = None) -> None:
         self.system, self.n = system, int(system.n)
+        size = (2 * H + 1) * self.n
+        # the Jacobian, its LU factors, the projected M and C, their derivative terms and the
+        # block assembly's work array: six dense (m n, m n) arrays
+        memory(6 * 8.0 * size * size, f"the dense Jacobian of harmonic balance with {H} harmonics and {self.n} DOFs",
+               "give fewer harmonics (harmonics, max_harmonics) or a larger tol")
         self.grid = _Grid(H, N)
         self.H, self.N = H, N
         self.omega = 2.0 * np.pi / float(system.period) if omega is None else float(omega)
@@ -464,11 +469,10 @@ def _solve(res: _Residual, x0: Array | None, omega: float, rtol: float, max_iter
         linear = np.linalg.solve(res.linear(omega), res.PF.ravel())
     except np.linalg.LinAlgError:
         linear = np.zeros(size)
-    total = 0
     for start in ([] if x0 is None else [np.array(x0, float)]) + [linear]:
         out = _newton(res, start, omega, 1.0, rtol, max_iter)
         if out is not None:
-            return out[:1] + (out[1] + total,) + out[2:] + (0,)
+            return out + (0,)
     from .continuation import ContinuationError, continuation  # (generic numerics, like this module)
 
     path = _LoadPath(res, omega)
@@ -490,7 +494,7 @@ def _solve(res: _Residual, x0: Array | None, omega: float, rtol: float, max_iter
         raise HarmonicBalanceError(f"harmonic balance with H = {res.H} harmonics: Newton's method did not "
                                    "converge from the end of the continuation in the load")
     x, it, r, J, lu = out
-    return x, it + total + br.stats["newton"], r, J, lu, len(br.points)
+    return x, it + br.stats["newton"], r, J, lu, len(br.points)
 
 
 #: points of the continuation in the load at most
@@ -635,7 +639,8 @@ class HarmonicBalanceSolution:
     residual : float
         The relative Galerkin residual at the solution (of the largest balanced term).
     iterations : int
-        Newton iterations (of the last H; every load step's included).
+        Newton iterations of the last H (of the Newton that converged, and the corrector
+        iterations of the continuation in the load where it was taken).
     accuracy : dict or None
         With ``tol``: the tolerance, the estimate, every H tried with its estimate, and the
         choice; None without ``tol`` (see :meth:`estimate`).
