@@ -35,7 +35,7 @@ from .response import Response
 from .setup import Setup, as_setup, min_steps_per_period
 from .steady import SteadyState
 
-__all__ = ["HarmonicBalanceState", "LinkageSystem", "harmonic_balance_steady_state"]
+__all__ = ["HILL_MAX_HARMONICS", "HarmonicBalanceState", "LinkageSystem", "harmonic_balance_steady_state"]
 
 #: the harmonics of Hill's matrix are at most these (its size is 2 n (2 H + 1): the dense
 #: eigenproblem costs its cube); the multipliers that decide the stability converge well below

@@ -704,7 +704,7 @@ def steady_state(
     if tol is not None:
         tol = number("tol", tol, low=0.0, high=1.0, low_open=True, high_open=True)
     s = as_setup(setup)
-    if method == "harmonic_balance":  # (its own module; the lead's method registry will hold it)
+    if method == "harmonic_balance":  # (fivebar.hb_linkage builds on this module: imported here)
         from .hb_linkage import harmonic_balance_steady_state
 
         res = harmonic_balance_steady_state(s, tol)
