@@ -23,14 +23,14 @@ with the :math:`n(2H+1)` real coefficients :math:`\hat{\mathbf u} = (\mathbf c_0
 :math:`\boldsymbol\nabla` (block :math:`h`: :math:`h\Omega\,[\begin{smallmatrix}0 & 1\\ -1 &
 0\end{smallmatrix}]` on :math:`(\mathbf a_h, \mathbf b_h)`),
 :math:`\dot{\mathbf u}_H = (\mathbf q^\top\otimes\mathbf I)(\boldsymbol\nabla\otimes\mathbf I)
-\hat{\mathbf u}`.  **Galerkin projection**: the residual of the equation of motion is made
-orthogonal to the :math:`2H+1` basis functions,
+\hat{\mathbf u}`.  **Galerkin projection**: the residual of the equation of motion,
+:math:`\mathbf r(t) = \mathbf M\ddot{\mathbf u}_H + \mathbf C\dot{\mathbf u}_H + \mathbf K\mathbf u_H
++ \mathbf f_{nl}(\mathbf u_H, t) - \mathbf F`, is made orthogonal to the :math:`2H+1` basis
+functions,
 
 .. math::
 
-    \mathbf R(\hat{\mathbf u}) = \frac{2}{T}\int_0^T \mathbf w(t)\otimes
-      \Big(\mathbf M\ddot{\mathbf u}_H + \mathbf C\dot{\mathbf u}_H + \mathbf K\mathbf u_H
-      + \mathbf f_{nl}(\mathbf u_H, t) - \mathbf F\Big)\,dt = \mathbf 0,
+    \mathbf R(\hat{\mathbf u}) = \frac{2}{T}\int_0^T \mathbf w(t)\otimes\mathbf r(t)\,dt = \mathbf 0,
     \qquad \mathbf w = (\tfrac12, \cos\Omega t, \sin\Omega t, \dots),
 
 so that a series already in the span is its own projection.  **Alternating frequency-time
