@@ -353,3 +353,16 @@ def test_the_generic_module_imports_nothing_of_the_linkage():
             "m.startswith(('fivebar.numerics', 'fivebar.errors', 'fivebar.cache'))]; print(bad); assert not bad, bad")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_continuation_takes_a_period_map_or_a_residual_problem_and_names_both_otherwise():
+    """The validation layer reads the union of two protocols in continuation's annotation: a
+    callable (a period map) or a ResidualProblem passes on to the solver, anything else is
+    refused with both names."""
+    from fivebar.errors import InputTypeError
+
+    with pytest.raises(InputTypeError, match="PeriodMap.*ResidualProblem"):
+        continuation(3.0, [0.0], 0.0, 1.0)
+    family = HarmonicBalanceFamily(lambda w: _duffing(w), 3)
+    branch = continuation(family, harmonic_balance(_duffing(1.0), 3).x, 1.0, 1.05, ds=0.05)
+    assert branch.stop.startswith("p_end")
