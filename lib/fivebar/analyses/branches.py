@@ -307,7 +307,13 @@ class LinkageBranch:
         :class:`~fivebar.numerics.continuation.Jump` per fold that ends a stable leg, its
         ``before`` and ``after`` the transverse midpoint peak-to-peak (mm) of ``link`` (default
         the first coupler, L2), ``rising`` whether the sweep meets it going up.  A hardening
-        oscillator jumps down going up and up going down."""
+        oscillator jumps down going up and up going down.
+
+        Returns
+        -------
+        list of Jump
+            In the order of the folds along the branch.
+        """
         base = self.period_map if isinstance(self.period_map, LinkagePeriodMap) else self.period_map.base
         link = _link(base.setup, link)
         return jumps(self.branch, self.period_map, lambda x, p: base.steady(x, p).peak_to_peak_mm(link))
