@@ -124,6 +124,8 @@ def test_prose_and_shipped_data_have_no_developer_references() -> None:
     ("/work/wt/tables/lib/fivebar/figure6.py:145: ValidityWarning: the steady", "work tree"),
     ("<IPython.core.display.Markdown object>", "display object"),
     ("<pandas.io.formats.style.Styler object at 0x7f>", "Styler"),
+    ("<pandas.io.formats.style.Styler at 0x7f5374684850>", "Styler"),  # as performance.ipynb stored it
+    ("<fivebar.analyses.steady.SteadyState at 0x7f53a022c0d0>", "repr of an object"),
     ("evaluations:  34%|███▍      | 88/256 [00:00<00:01, 125.52eval/s]", "progress bar"),
     ("the library's tests (`tests/test_continuation.py`), its backbone", "test"),
     ("source = \"issue 17: crank AB 0.10 m\"", "issue number"),
