@@ -198,7 +198,8 @@ class Response:
             for i, el in enumerate(m.elements):
                 N2 = _curvature_shapes(el.length, points)
                 kappa = np.abs(q[:, i, :] @ N2.T).max()
-                out[el.link] = max(out.get(el.link, 0.0), p.E * 0.5 * p.bending_depth * kappa)
+                link = m.linkage.link(el.link)  # its own material and section
+                out[el.link] = max(out.get(el.link, 0.0), link.material.E * 0.5 * link.section.bending_depth * kappa)
             self._cache[key] = out
         return dict(self._cache[key])
 

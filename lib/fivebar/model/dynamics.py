@@ -282,12 +282,8 @@ class LinkageDynamics:
         bend = np.array([1, 2, 3, 5, 6, 7])
         for el, beta in zip(m.elements, m.element_angles(state.angle)):
             beta = np.broadcast_to(beta, shape)
-            c, s = np.cos(beta), np.sin(beta)
-            R = m._rotations(beta)
-            dR = np.zeros(R.shape)
-            for j in (0, 4):  # d/dbeta of [[c, s], [-s, c]]
-                dR[..., j, j], dR[..., j, j + 1] = -s, c
-                dR[..., j + 1, j], dR[..., j + 1, j + 1] = -c, -s
+            R = m._rotations(beta, el.frames)
+            dR = m._rotations(beta, el.frames, derivative=True)  # d/dbeta of [[c, s], [-s, c]]
             dR *= np.broadcast_to(state.omega[el.link], shape)[..., None, None]
             Ke = np.zeros((8, 8))
             Ke[np.ix_(bend, bend)] = m.Ke[el.link][np.ix_(bend, bend)]
