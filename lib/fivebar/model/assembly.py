@@ -313,6 +313,51 @@ class Model:
         """
         return self._rigid_field(state, 2)
 
+    def prescribed_load(self, state: RigidState) -> NDArray:
+        r"""The inertial load on the DOFs from the rigid motion of the DOFs the joints eliminate.
+
+        The elastic DOFs of a joint that moves as the drives prescribe (the far joint of a
+        rigid crank, a driven slider) or turns with a clamped crank root under a non-uniform
+        drive are eliminated, but their rigid acceleration loads the elements they belong to:
+        :math:`-\mathbf M_{ke}\ddot{\mathbf u}_{r,e}`, with :math:`\mathbf M_{ke}` the consistent
+        mass between the kept and the eliminated DOFs of each element.  Zero for joints on the
+        ground and for crank roots at constant speed (the paper's five-bar).  Shape
+        ``(..., n)`` (N, N m); (2.7)'s right-hand side is :math:`-\mathbf M\ddot{\mathbf u}_r`
+        plus this.
+        """
+        shape = np.shape(state.angle[self.elements[0].link])
+        out = np.zeros(shape + (self.n,))
+        for el, beta in zip(self.elements, self.element_angles(state.angle)):
+            a = np.zeros(shape + (8,))
+            moving = False
+            for node, first in ((0, True), (1, False)):
+                loc = 4 * node
+                at_end = el.index == 0 if first else el.index == self.elements_per_link[
+                    self.linkage.link_names.index(el.link)] - 1
+                if not at_end:
+                    continue
+                joint = self.linkage.fe_ends(el.link)[0 if first else 1]
+                if el.dofs[loc] < 0 or el.dofs[loc + 1] < 0:
+                    acc = state.acc[joint]
+                    phi = el.frames[node]
+                    c, sn = np.cos(phi), np.sin(phi)
+                    comp = (acc[..., 0] * c + acc[..., 1] * sn, -acc[..., 0] * sn + acc[..., 1] * c)
+                    for k in (0, 1):
+                        if el.dofs[loc + k] < 0 and np.any(comp[k]):
+                            a[..., loc + k] = comp[k]
+                            moving = True
+                if el.dofs[loc + 2] < 0 and np.any(state.alpha[el.link]):
+                    a[..., loc + 2] = state.alpha[el.link]
+                    moving = True
+            if not moving:
+                continue
+            R = self._rotations(np.broadcast_to(beta, shape), el.frames)
+            Mg = np.swapaxes(R, -1, -2) @ self.Me[el.link] @ R
+            keep = [i for i, d in enumerate(el.dofs) if d >= 0]
+            g = np.array([el.dofs[i] for i in keep])
+            out[..., g] -= np.einsum("...ij,...j->...i", Mg[..., keep, :], a)
+        return out
+
     def rigid_velocity(self, state: RigidState) -> NDArray:
         """The rigid velocity field in the generalised coordinates (as :meth:`rigid_acceleration`,
         one derivative lower).  With unit crank speeds it is the mechanism's rigid-body mode:

@@ -6,8 +6,10 @@ r"""The time-varying equation of motion (2.7) of the linkage over one period of 
     + \mathbf f_{nl}(\mathbf u, t) = \mathbf P - \mathbf M(t)\ddot{\mathbf u}_r(t) ,
 
 the kineto-elastodynamic equation: the elastic deflections :math:`\mathbf u` ride on the
-rigid motion prescribed by the crank laws and are driven by its inertia
-:math:`-\mathbf M\ddot{\mathbf u}_r` (:meth:`fivebar.model.assembly.Model.rigid_acceleration`);
+rigid motion prescribed by the drive laws and are driven by its inertia
+:math:`-\mathbf M\ddot{\mathbf u}_r` (:meth:`fivebar.model.assembly.Model.rigid_acceleration`), and
+by the inertia of the rigid motion of the DOFs a joint eliminates where that joint moves (the
+pin of a rigid crank, a driven slider: :meth:`fivebar.model.assembly.Model.prescribed_load`);
 :math:`\mathbf f_{nl} = -\varepsilon` is the geometric nonlinearity (2.8)
 (:mod:`fivebar.model.nonlinear`).
 
@@ -256,6 +258,9 @@ class LinkageDynamics:
         M, K = (np.ascontiguousarray(X[..., k[:, None], k[None, :]]) for X in (M, K))
         ur = self.model.rigid_acceleration(state)[..., k]
         F = np.ascontiguousarray(-np.einsum("...ij,...j->...i", M, ur))
+        extra = self.model.prescribed_load(state)[..., k]  # eliminated DOFs that move: a rigid crank's pin, a driven slider
+        if np.any(extra):
+            F = np.ascontiguousarray(F + extra)
         if self._P is not None:
             F = F + np.array([np.asarray(self._P(ti), float) for ti in np.atleast_1d(t)]).reshape(F.shape)
         if params.damping_model == "stiffness":
