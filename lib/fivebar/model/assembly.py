@@ -503,8 +503,10 @@ def build_model(
         with the crank roots tied to the shaft torsion; ``False`` clamps the crank roots
         (rigid motor shafts).
     tie_crank_roots
-        ``False`` gives the literal reading of (A.12) (crank-root slopes independent of the
-        motors: singular K); only meaningful with ``motors=True``.
+        ``False`` gives the literal reading of (A.12): crank-root slopes independent of the
+        motors, and free where a crank has no motor (the pin of a rigid crank then translates
+        freely): singular K, the free-rotor model's starting point
+        (:class:`fivebar.model.free_rotors.FlexibleLinkage`).
     """
     lk = params.linkage
     epl = lk.check_mesh(elements_per_link)
@@ -534,7 +536,8 @@ def build_model(
     body = {name: b for b in lk.bodies for name in b}
     # joints that do not translate elastically: on the ground, a driven slider, the far end of a rigid crank
     fixed = {j.name for j in lk.joints if j.on_ground or (j.kind == "slider" and j.drive is not None)}
-    fixed |= {x for k in lk.links if k.rigid for x in (k.start, k.end)}
+    if tie_crank_roots:  # (the literal model leaves a rigid crank free to turn: its pin then translates)
+        fixed |= {x for k in lk.links if k.rigid for x in (k.start, k.end) if not lk.joint(x).on_ground}
     shared: dict[tuple[str, tuple[str, ...]], int] = {}  # (joint, body) -> the slope welded arms share
 
     def slope_at(link: str, joint: str, label_link: str) -> int:
@@ -560,7 +563,7 @@ def build_model(
                 if joint in root_motor and tie_crank_roots:
                     slope = motor_dofs[root_motor[joint]][3]
                     paper.append(slope)  # the paper's u9 / u31 is U4 / U8
-                elif joint in root_motor:
+                elif joint in root_motor or not tie_crank_roots:
                     slope = slope_at(link, joint, link)
                 else:
                     slope = -1
