@@ -367,3 +367,47 @@ def test_stiffness_damping_time_is_taken_at_the_drives_initial_inputs(params):
     w1 = 2 * math.pi * fivebar.natural_frequencies(Setup(p, motors=False), *start, n_modes=1)[0]
     assert math.isclose(dyn.stiffness_damping_time, 2 * p.damping_ratio / w1, rel_tol=1e-12)
     assert fivebar.steady_state(s).stable
+
+
+# --- every analysis on every shipped linkage ----------------------------------------------------------
+SPEEDS = {"four-bar": 600.0, "slider-crank": SLIDER.crank_speed_rpm, "six-bar": 300.0}
+
+
+@pytest.mark.parametrize("name", list(SPEEDS))
+def test_every_analysis_runs_on_each_shipped_linkage(name):
+    """Frozen modes, Campbell data, the resonance table, the steady state (shooting and the
+    march), its continuation in speed, multiple scales, control and the excitation table on the
+    four-bar, the slider-crank and the six-bar, each checked against a second route: the march
+    and shooting give one orbit, the continuation starts on it, the multiple-scales
+    approximation is near it, and the closed loop under a stiff servo follows the prescribed
+    motion (the five-bar's own tests cover it)."""
+    from fivebar.analyses import branches
+    from fivebar.analyses.control import control_design, control_simulation
+    from fivebar.analyses.resonance import campbell_data, resonance_table
+
+    p = {"four-bar": FOUR, "slider-crank": SLIDER, "six-bar": SIX}[name]
+    rpm = SPEEDS[name]
+    link = p.linkage.couplers[0]
+    s = Setup(p, crank_speed_rpm=rpm, steps_per_period=200, motors=False)
+    f = fivebar.natural_frequencies(s, 0.0, n_modes=4)
+    assert np.all(np.diff(f) > 0) and f[0] > 0
+    cd = campbell_data(s, np.linspace(0.5 * rpm, 2 * rpm, 4), n_modes=2)
+    assert np.all(cd.low[0] <= f[0] + 1e-9) and np.all(f[0] <= cd.high[0] + 1e-9)
+    assert len(resonance_table(s, n_modes=2)) >= 0
+    exc = fivebar.excitation_frequencies(p.replace(crank_speed_rpm=rpm))
+    assert math.isclose(exc.loc["nu1", "frequency (rad/s)"], rpm * math.pi / 30)
+    st = fivebar.steady_state(s)
+    assert st.stable
+    march = fivebar.steady_state(s, method="march")
+    y = st.midpoint_mm(link)
+    assert np.abs(march.midpoint_mm(link) - y).max() < 1e-3 * np.ptp(y)
+    br = branches.follow(s, 1.05 * rpm, points=3)
+    assert math.isclose(br.p[0], rpm) and math.isclose(br.peak_to_peak_mm(link)[0], np.ptp(y), rel_tol=1e-6)
+    ms = fivebar.multiple_scales(s)  # the paper's two modes: 9 % (four-bar), 6 % (slider-crank), 21 % (six-bar) off
+    assert abs(ms.peak_to_peak_mm(link) / np.ptp(y) - 1) < 0.3
+    servo = control_design.pd_servo(p, bandwidth=200.0)
+    sim = control_simulation.simulate_cycle(Setup(p, crank_speed_rpm=rpm, steps_per_period=200), servo, periods=4)
+    lin = fivebar.steady_state(s.replace(nonlinear=False))
+    assert abs(1e3 * sim.peak_to_peak(link) / lin.peak_to_peak_mm(link) - 1) < 0.01
+    sys = fivebar.linear_model(p, 0.0, n_modes=3)
+    assert sys.ninputs == 1 and sys.noutputs == 1 + len(p.linkage.couplers)

@@ -74,15 +74,12 @@ ASSUMPTION_VARIANTS: tuple[Variant, ...] = (
 
 
 def _row(res: SteadyState) -> dict[str, float]:
+    """The couplers' transverse and bending peak-to-peak (L2, L3 of the five-bar) and the peak stress."""
     stress = res.bending_stress()
-    return {
-        "L2 transverse p-p (um)": 1e3 * res.peak_to_peak_mm("L2"),
-        "L3 transverse p-p (um)": 1e3 * res.peak_to_peak_mm("L3"),
-        "L2 bending p-p (um)": 1e3 * res.peak_to_peak_mm("L2", "chord"),
-        "L3 bending p-p (um)": 1e3 * res.peak_to_peak_mm("L3", "chord"),
-        "peak bending stress (MPa)": max(stress.values()) / 1e6,
-        "in link": max(stress, key=stress.get),
-    }
+    couplers = res.dynamics.params.linkage.couplers
+    row = {f"{k} transverse p-p (um)": 1e3 * res.peak_to_peak_mm(k) for k in couplers}
+    row.update({f"{k} bending p-p (um)": 1e3 * res.peak_to_peak_mm(k, "chord") for k in couplers})
+    return {**row, "peak bending stress (MPa)": max(stress.values()) / 1e6, "in link": max(stress, key=stress.get)}
 
 
 def _variant(s: Setup, v: Variant) -> Setup:
@@ -127,7 +124,7 @@ def assumption_effects(
         rows.append({"assumption": v.assumption, "alternative": v.label, **_row(res), "note": ""})
     rows[0]["note"] = ""
     df = pd.DataFrame(rows)
-    for link in ("L2", "L3"):
+    for link in s.params.linkage.couplers:
         col = f"{link} transverse p-p (um)"
         df[f"{link} change (%)"] = _change_percent(df[col].to_numpy(), base[col])
     return df

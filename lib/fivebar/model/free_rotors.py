@@ -451,7 +451,7 @@ class FlexibleLinkage:
         return self._from_literal(a, np.stack([st.alpha[k] for k in self._crank_links], -1))
 
     def inertial_load(self, *laws: ArrayLike) -> NDArray:
-        """The load of the nominal rigid motion on p, -M_p a_r, shape ``(..., n)`` (N, N m):
+        r"""The load of the nominal rigid motion on p, -M_p a_r, shape ``(..., n)`` (N, N m):
         ``inertial_load(theta1, omega1, alpha1, theta4, omega4, alpha4)``.
 
         A rigid crank's pin moves by :math:`L\mathbf n(\beta)` per radian of the crank, a map
