@@ -36,6 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..cache import memoised
 from ..model.dynamics import LinkageDynamics, linkage_dynamics
 from ..model.elements import shape_functions
+from ..model.nonlinear import _slopes
 from ..errors import ComputationError, InputError, array, number
 from ..numerics.newmark import integrate
 from ..numerics.schemes import Scheme
@@ -180,6 +181,34 @@ class Response:
             self._cache["q"] = self.dynamics.model.element_displacements(self.dynamics.expand(self.u),
                                                                          *self._angles())
         return self._cache["q"]
+
+    def axial_force(self, link: str) -> NDArray:
+        r"""Axial (membrane) force (N, tension positive) of each element of a link at the
+        samples, shape ``(samples, elements)``, the elements from the link's start to its end.
+
+        The element's mean of :math:`EA\,\epsilon` with :math:`\epsilon = V' + e`: the stretch of
+        its linear axial field, plus, where the model keeps the geometric nonlinearity, the mean
+        of the nonlinear strain :math:`e = 	frac12 W'^2` (the same for every strain measure of
+        :mod:`fivebar.model.nonlinear`; the uniform measure's at every point).  It is the force
+        of the elastic deformation; the rigid-body inertia it balances is the load of (2.7).
+        """
+        m = self.dynamics.model
+        m._check_link_point(link, 0.5)
+        q = self._element_displacements()  # (N, nel, 8) in the elements' frames
+        lk = m.linkage.link(link)
+        EA = lk.material.E * lk.section.area
+        idx = [i for i, el in enumerate(m.elements) if el.link == link]
+        out = []
+        for i in idx:
+            el = m.elements[i]
+            Vp = (q[:, i, 4] - q[:, i, 0]) / el.length
+            if self.dynamics.nonlinear is not None:
+                w, g = _slopes(el.length)  # Gauss weights and slope shapes
+                Wp = q[:, i, :] @ g.T
+                Vp = Vp + 0.5 * (Wp * Wp) @ w / el.length
+            out.append(EA * Vp)
+        out = np.stack(out, axis=-1)
+        return out[:, ::-1] if m._reversed(link) else out
 
     def bending_stress(self, points: int = 11) -> dict[str, float]:
         """Peak bending stress (Pa) of each link over the samples.
