@@ -34,7 +34,7 @@ MODEL = ("description.params", "description.linkage", "description.setup", "mode
          "analyses.modal", "model.excitation", "analyses.response", "model.free_rotors", "analyses.steady",
          "analyses.branches", "analyses.sweep", "analyses.resonance", "analyses.linkage_multiscale",
          "analyses.figure6", "analyses.multibody", "analyses.control.control_model",
-         "analyses.control.control_design", "analyses.control.control_simulation")
+         "analyses.control.control_design", "analyses.control.control_simulation", "analyses.sensitivity")
 #: A name of the paper's five-bar in code: a link L1..L5 or a motor section motor1, motor2.
 FIVE_BAR = re.compile(r"\b(L[1-5]|motor[12])\b")
 

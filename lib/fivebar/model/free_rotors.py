@@ -220,8 +220,8 @@ def rigid_inertia(params: Params, rotor_inertia_scale: float = 1.0) -> InertiaMo
     """
     s = _positive("rotor_inertia_scale", rotor_inertia_scale)
     base = inertia_model(params, shaft_inertia=False)
-    d2 = params.rotary_inertia * params.bending_depth**2
-    link_inertia = {k.name: base.link_mass[k.name] * (k.length**2 + d2) / 12.0 for k in params.linkage.links}
+    link_inertia = {k.name: base.link_mass[k.name] * (k.length**2 + params.rotary_inertia * k.section.bending_depth**2) / 12.0
+                    for k in params.linkage.links}  # (each link's own in-plane depth)
     rotors = {joint: s * m.J0 + _shaft_terms(m)[0] for joint, m in params.crank_motors.items()}
     return base.replace(link_inertia=link_inertia, rotors=rotors)
 
