@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 # that nbval sees the same figure outputs as were stored (tests/conftest.py selects Agg).
 export PYDEVD_DISABLE_FILE_VALIDATION := 1
 
-.PHONY: venv test test-unit test-notebooks book book-clean book-student pdf pdf-if-tex execute clean \
+.PHONY: venv test check test-unit test-notebooks test-notebooks-other book book-clean book-student pdf pdf-if-tex execute clean \
 	rerun rerun-examples
 
 venv: $(STAMP)
@@ -24,7 +24,9 @@ $(STAMP): requirements-lock.txt pyproject.toml
 	touch $(STAMP)
 
 ## make test: nbval (strict) over every notebook in book/ first (it re-executes every cell: the
-## reproducibility check), then the PDF (when TeX is there, so that the book links it), the
+## reproducibility check), twice: as the machine is and in a second numerical environment
+## (test-notebooks-other: numba generic target, one BLAS thread); then
+## the PDF (when TeX is there, so that the book links it), the
 ## book (warnings are errors), and the library's unit tests, the PDF and edition tests (the
 ## student edition) and the browser test of the built book (tests/).  Once nbval has found
 ## every stored output reproduced, the execution cache is seeded with the stored outputs
@@ -35,16 +37,34 @@ $(STAMP): requirements-lock.txt pyproject.toml
 TEST_JOBS ?= 2
 test: venv
 	$(MAKE) --no-print-directory test-notebooks
+	$(MAKE) --no-print-directory test-notebooks-other
 	$(BIN)/python book/_ext/fivebar_build.py seed-cache
 	$(MAKE) --no-print-directory pdf-if-tex
 	$(MAKE) --no-print-directory book
 	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q --durations=15
+
+## make check: the fast unit tests (not marked slow; no notebooks, no book, no browser), for the
+## edit-test loop: about a minute on 2 cores.  `make test` runs everything.
+check: venv
+	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q -m "not slow" \
+	--ignore=tests/test_browser.py --ignore=tests/test_editions.py --ignore=tests/test_pdf.py
 
 ## make test-unit: only the library's unit tests (no book, no browser)
 test-unit: venv
 	$(BIN)/python -m pytest -p no:cacheprovider tests -q --ignore=tests/test_browser.py
 
 test-notebooks: venv
+	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadscope book --nbval --nbval-current-env \
+	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
+
+## make test-notebooks-other: nbval (strict) again in a second numerical environment that rounds
+## differently: numba's generic target (no fused multiply-add, no AVX; its own cache directory,
+## _build/numba-generic) and one BLAS thread.  Every stored output must survive it: a number
+## printed to a digit that round-off moves fails here (book/run.md, "Check the book on your
+## machine").  OPENBLAS_CORETYPE is left as the machine sets it.
+test-notebooks-other: venv
+	@mkdir -p _build/numba-generic
+	NUMBA_CPU_NAME=generic NUMBA_CACHE_DIR=$(CURDIR)/_build/numba-generic OPENBLAS_NUM_THREADS=1 \
 	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadscope book --nbval --nbval-current-env \
 	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
 

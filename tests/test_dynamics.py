@@ -40,6 +40,7 @@ def test_rotor_dofs_are_decoupled_and_left_out():
     assert np.all(M[np.ix_(rotor, d.keep)] == 0) and np.all(K[np.ix_(rotor, d.keep)] == 0)
 
 
+@pytest.mark.slow
 def test_newmark_against_radau_on_the_full_model():
     """From a state on the steady orbit, the average-acceleration rule (S = 1600) and scipy's
     Radau (rtol 1e-7) give the same midpoint motion.  The window is 2 % of a period: the
@@ -417,3 +418,27 @@ def test_gravity_is_not_scaled_with_the_speed():
     d = LinkageDynamics(Setup(p, crank_speed_rpm=300, steps_per_period=32, motors=False))
     F = d._sample(d.t)[3]
     assert np.abs(d.step_data.F - F).max() <= 1e-12 * np.abs(F).max()
+
+
+def test_shooting_converging_as_it_leaves_the_newton_picard_basis():
+    """Above 32 DOFs shooting starts with Newton on the lowest modes and Picard's iteration on
+    the rest, and goes over to Newton on every direction when an iteration reduces the residual
+    by less than 10.  If that same iteration reached the tolerance, the reduced monodromy
+    (2 n x 24) was kept as the orbit's own and scaled by the full scaling: ValueError, shapes
+    (92,24) and (1,92).  The tolerance is put just above the residual of the first slow
+    iteration, found from this run's own history, so the case is met on any machine; the orbit
+    must then come with its 2 n Floquet multipliers (stable: the damped linear model)."""
+    import re
+
+    s = Setup(P, crank_speed_rpm=300.0, motors=False, nonlinear=False, elements_per_link=(2, 4, 4, 2),
+              steps_per_period=100)
+    history = []
+    for it in range(1, 9):
+        with pytest.raises(fivebar.FivebarError) as exc:
+            shooting(s, tol=1e-16, max_iter=it)
+        history.append(float(re.search(r"residual ([0-9.e+-]+)", str(exc.value)).group(1)))
+    slow = next(k for k in range(1, len(history)) if history[k] > 0.1 * history[k - 1])
+    res = shooting(s, tol=1.01 * history[slow], max_iter=slow + 1)
+    assert res.residual <= 1.01 * history[slow]
+    mu = res.floquet_multipliers
+    assert mu.shape == (2 * res.dynamics.n,) and np.abs(mu).max() < 1

@@ -23,11 +23,12 @@ from typing import Any
 
 import pandas as pd
 
-from ..errors import FivebarError
+from ..errors import FivebarError, InputError
 from ..description.params import DEFAULT_PARAMS_PATH, Params, load_params
 
 __all__ = [
     "ERRATA_PATH",
+    "certain",
     "ERRATA_FIELDS",
     "ERRATA_MATH_FIELDS",
     "ReportError",
@@ -222,6 +223,37 @@ def format_value(value: Any) -> str:
     return str(value)
 
 
+def certain(value: float, uncertainty: float, decimals: int = 2) -> str:
+    """``value`` to the decimals that ``uncertainty`` cannot change: the fewest, from
+    ``decimals`` up, at which ``value - uncertainty`` and ``value + uncertainty`` print the same
+    (a value within its uncertainty of a rounding boundary takes more decimals instead of
+    printing whichever side round-off lands it on); if even ``decimals`` is too many, fewer.
+
+    A number computed to a tolerance (a fold located to 1e-5 r/min, an orbit to 1e-10) differs
+    in its last digits from one machine to another (BLAS kernel, threads, fused multiply-add);
+    printed with this, the page reads the same on every machine.
+
+    >>> certain(195.16791, 1e-4), certain(204.03500, 1e-4), certain(204.03503, 1e-4)
+    ('195.17', '204.035', '204.035')
+    >>> certain(0.123456, 0.01, decimals=3)
+    '0.1'
+    """
+    value, uncertainty = float(value), abs(float(uncertainty))
+    if not (math.isfinite(value) and math.isfinite(uncertainty)):
+        raise InputError(f"value = {value!r}, uncertainty = {uncertainty!r} are not allowed: give finite numbers")
+
+    def same(d):
+        lo, hi = f"{value - uncertainty:.{d}f}", f"{value + uncertainty:.{d}f}"
+        return lo == hi and lo == f"{value:.{d}f}"
+    for d in range(int(decimals), int(decimals) + 4):
+        if same(d):
+            return f"{value:.{d}f}"
+    for d in range(int(decimals) - 1, -1, -1):
+        if same(d):
+            return f"{value:.{d}f}"
+    return f"{value:.0f}"
+
+
 def table(df: pd.DataFrame, digits: int | dict[str, int] = 4, caption: str | None = None,
           name: str | None = None) -> Any:
     """A table for the book: no index column, numbers rounded as ``digits`` says.
@@ -298,6 +330,8 @@ def table(df: pd.DataFrame, digits: int | dict[str, int] = 4, caption: str | Non
 
 def _myst_table(df: pd.DataFrame, digits: int | dict[str, int], caption: str, name: str) -> Any:
     """The numbered MyST table of :func:`table` (a ``{table}`` directive around a pipe table)."""
+    import re
+
     from IPython.display import Markdown
 
     def cell(col, v) -> str:
@@ -307,8 +341,11 @@ def _myst_table(df: pd.DataFrame, digits: int | dict[str, int], caption: str, na
             return "–"
         if isinstance(v, float):
             if isinstance(digits, dict):
-                return f"{v:.{digits[col]}f}" if col in digits else f"{v:.4g}"
-            return f"{v:.{digits}g}"
+                text = f"{v:.{digits[col]}f}" if col in digits else f"{v:.4g}"
+            else:
+                text = f"{v:.{digits}g}"
+            # a value that rounds to zero prints as 0, whatever the sign its round-off took
+            return text[1:] if re.fullmatch(r"-0(\.0*)?", text) else text
         return str(v).replace("|", "\\|").replace("\n", " ")
 
     head = [str(c).replace("|", "\\|") for c in df.columns]
