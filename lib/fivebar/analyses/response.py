@@ -188,7 +188,7 @@ class Response:
 
         The element's mean of :math:`EA\,\epsilon` with :math:`\epsilon = V' + e`: the stretch of
         its linear axial field, plus, where the model keeps the geometric nonlinearity, the mean
-        of the nonlinear strain :math:`e = 	frac12 W'^2` (the same for every strain measure of
+        of the nonlinear strain :math:`e = \frac12 W'^2` (the same for every strain measure of
         :mod:`fivebar.model.nonlinear`; the uniform measure's at every point).  It is the force
         of the elastic deformation; the rigid-body inertia it balances is the load of (2.7).
         """

@@ -75,7 +75,6 @@ Any number may instead be the dotted key of a flat entry of the parameter file
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -84,6 +83,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..cache import memoised
 from ..errors import FivebarError, InputError, ParameterError
 
 __all__ = ["Assembly", "Drive", "Guide", "Joint", "Link", "Linkage", "LinkageError", "Material", "Section", "Step",
@@ -457,7 +457,7 @@ def _between_pins(lk: Linkage, link: Link) -> bool:
 
 
 # --- structure: bodies, mobility, the closure plan ----------------------------------------------
-@functools.lru_cache(maxsize=256)
+@memoised
 def _bodies(lk: Linkage) -> tuple[tuple[str, ...], ...]:
     parent = {k.name: k.name for k in lk.links}
 
@@ -476,7 +476,7 @@ def _bodies(lk: Linkage) -> tuple[tuple[str, ...], ...]:
     return tuple(tuple(g) for g in order)
 
 
-@functools.lru_cache(maxsize=256)
+@memoised
 def _gruebler(lk: Linkage) -> tuple[int, int, int, int]:
     """(mobility, bodies n with the ground, revolutes, prismatic joints)."""
     body = {name: i for i, b in enumerate(lk.bodies) for name in b}
@@ -491,7 +491,7 @@ def _gruebler(lk: Linkage) -> tuple[int, int, int, int]:
     return 3 * (n - 1) - 2 * (jr + jp), n, jr, jp
 
 
-@functools.lru_cache(maxsize=256)
+@memoised
 def _plan(lk: Linkage) -> tuple[Step, ...]:
     """Decompose the linkage into a sequence of steps (:class:`Step`); raise LinkageError where
     it is not a sequence of dyads or a branch is not named."""
