@@ -237,19 +237,33 @@ def test_four_bar_steady_response_against_the_multibody_model():
             assert np.abs(y_mb - y).max() < 0.01 * np.ptp(y), (link, d)
 
 
-def test_five_bar_only_analyses_refuse_the_four_bar_by_name():
-    """The free-rotor control model and the nu1..nu8 table are of two motor-driven cranks:
-    a four-bar (one crank, no motor) gets an error that says so, not a silent second crank."""
+def test_the_control_model_and_the_excitation_table_take_the_four_bar():
+    """The free-rotor control model and the excitation table were of two motor-driven cranks
+    (issue 34): the four-bar gets one input, the crank's root rotation (no motor), one rigid
+    mode, and one excitation frequency, its crank's; a driven slider, which has no torque input,
+    is refused by name."""
     from fivebar.errors import FivebarError
     from fivebar.model.excitation import excitation_frequencies
     from fivebar.model.free_rotors import FlexibleLinkage, elastic_frequencies, rigid_inertia
 
-    for call in (lambda: FlexibleLinkage(FOUR), lambda: elastic_frequencies(FOUR, [0.0]),
-                 lambda: excitation_frequencies(FOUR)):
-        with pytest.raises(FivebarError, match="two motor-driven cranks.*'four-bar crank-rocker' has 1 driven crank"):
-            call()
+    fl = FlexibleLinkage(FOUR)
+    assert fl.inputs == 1 and fl.labels[0] == "phi1" and fl.default_outputs == ("theta1", "w2")
+    M, K = fl.matrices(0.3)
+    w2 = np.linalg.eigvalsh(np.linalg.solve(np.linalg.cholesky(M), np.linalg.solve(np.linalg.cholesky(M), K).T))
+    assert abs(w2[0]) < 1e-8 * w2[1]  # one rigid mode: the crank turns freely
+    assert elastic_frequencies(FOUR, [0.0], n_modes=2).shape == (1, 2)
+    df = excitation_frequencies(FOUR)
+    assert list(df.index) == ["nu1"] and np.isclose(df.loc["nu1", "frequency (rad/s)"], FOUR.crank_speed_rad_s)
     assert rigid_inertia(FOUR).rotors == {}  # the rigid inertia serves any description
     assert FOUR.crank_motors == {} and list(FOUR.motors) == ["motor1", "motor2"]  # the layered file's sections
+    slider_drive = {"name": "slider-driven", "assembly": [{"joint": "B", "side": "left", "line": ["A", "C"]}],
+                    "links": {"crank": {"start": "A", "end": "B", "length": 0.15},
+                              "rod": {"start": "B", "end": "C", "length": 0.30}},
+                    "joints": {"A": {"kind": "ground", "at": [0.0, 0.0]}, "B": {"kind": "pin"},
+                               "C": {"kind": "slider", "guide": {"at": [0.0, 0.0], "angle": 0.0},
+                                     "drive": {"s0": 0.3, "fourier": [[0.05, 0.0]]}}}}
+    with pytest.raises(FivebarError, match=r"drives the slider\(s\) \['C'\], whose force input it does not have"):
+        FlexibleLinkage(FOUR.replace(linkage=slider_drive))
 
 
 def test_four_bar_brute_force_and_speed_report_use_its_own_links():

@@ -27,11 +27,15 @@ MODULES = sorted(".".join(p.relative_to(LIB).with_suffix("").parts).removesuffix
                  for p in LIB.rglob("*.py") if p != LIB / "__init__.py")
 
 #: The model (parameters, description, kinematics, rigid and elastic model, the equation of
-#: motion, modes, excitation, the response) and the control model's free-rotor linkage: the code
-#: that must work from any description.
+#: motion, modes, excitation, the response), the control model's free-rotor linkage and the
+#: analyses (steady states, branches, sweeps, resonance, multiple scales, Figure 6's tables, the
+#: multibody model, control): the code that must work from any description (issue 34).
 MODEL = ("description.params", "description.linkage", "description.setup", "model.kinematics", "model.rigid",
          "model.elements", "model.electromagnetics", "model.assembly", "model.nonlinear", "model.dynamics",
-         "analyses.modal", "model.excitation", "analyses.response", "model.free_rotors")
+         "analyses.modal", "model.excitation", "analyses.response", "model.free_rotors", "analyses.steady",
+         "analyses.branches", "analyses.sweep", "analyses.resonance", "analyses.linkage_multiscale",
+         "analyses.figure6", "analyses.multibody", "analyses.control.control_model",
+         "analyses.control.control_design", "analyses.control.control_simulation", "analyses.sensitivity")
 #: A name of the paper's five-bar in code: a link L1..L5 or a motor section motor1, motor2.
 FIVE_BAR = re.compile(r"\b(L[1-5]|motor[12])\b")
 

@@ -187,12 +187,14 @@ def test_axial_force_is_the_derivative_of_the_element_energy(params, nonlinear, 
     u = 2e-3 * rng.standard_normal((3, dyn.n))
     t = dyn.t[:3]
     res = fivebar.Response(dyn, t, u, 0 * u, "test field")
-    N = res.axial_force()
+    N = {el.link: res.axial_force(el.link) for el in dyn.model.elements}
     q = dyn.model.element_displacements(dyn.expand(u), *dyn.crank_angles(t))
     for i, el in enumerate(dyn.model.elements):
         link = p.linkage.link(el.link)
         EA, L = link.material.E * link.section.area, el.length
-        k = [j for j, e in enumerate(dyn.model.elements) if e.link == el.link].index(i)
+        of_link = [j for j, e in enumerate(dyn.model.elements) if e.link == el.link]
+        k = of_link.index(i)
+        k = len(of_link) - 1 - k if dyn.model._reversed(el.link) else k  # axial_force: from the link's start
         for s in range(3):
             def energy(u2):
                 qq = q[s, i].copy()

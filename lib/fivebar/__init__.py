@@ -31,6 +31,7 @@ _FACADE = {
     "UnstableParametersError": "numerics.schemes",
     "NewtonConvergenceError": "numerics.newmark", "integrate": "numerics.newmark",
     "DEFAULT_PARAMS_PATH": "description.params", "FOURBAR_PARAMS_PATH": "description.params",
+    "SIXBAR_PARAMS_PATH": "description.params", "SLIDER_CRANK_PARAMS_PATH": "description.params",
     "Motor": "description.params", "ParameterError": "description.params",
     "Params": "description.params", "load_params": "description.params",
     "campbell_diagram": "book.plotting", "resonance_table": "analyses.resonance",
@@ -61,6 +62,8 @@ def __dir__():
 __all__ = [
     "DEFAULT_PARAMS_PATH",
     "FOURBAR_PARAMS_PATH",
+    "SIXBAR_PARAMS_PATH",
+    "SLIDER_CRANK_PARAMS_PATH",
     "FivebarError",
     "PAPER_SCHEME",
     "Setup",

@@ -52,7 +52,7 @@ from .harmonic_balance import harmonic_balance_steady_state
 from .steady import SteadyState, _monodromy_period, _period, _to_tolerance, _warm_start, march, shooting
 
 __all__ = ["BruteForceDiagram", "LinkageBranch", "LinkagePeriodMap", "SpeedReport", "brute_force_diagram", "describe_speed",
-           "explain_steady", "follow", "follow_period_doubling", "linkage_period_map", "steady_state"]
+           "explain_steady", "follow", "follow_period_doubling", "linkage_period_map", "steady_state", "STEADY_METHODS"]
 
 Array = NDArray[np.float64]
 

@@ -73,16 +73,12 @@ ASSUMPTION_VARIANTS: tuple[Variant, ...] = (
 )
 
 
-def _row(res: SteadyState) -> dict[str, float]:
+def _row(res: SteadyState, couplers: tuple[str, ...]) -> dict[str, float]:
+    """The couplers' transverse and bending peak-to-peak (L2, L3 of the five-bar) and the peak stress."""
     stress = res.bending_stress()
-    return {
-        "L2 transverse p-p (um)": 1e3 * res.peak_to_peak_mm("L2"),
-        "L3 transverse p-p (um)": 1e3 * res.peak_to_peak_mm("L3"),
-        "L2 bending p-p (um)": 1e3 * res.peak_to_peak_mm("L2", "chord"),
-        "L3 bending p-p (um)": 1e3 * res.peak_to_peak_mm("L3", "chord"),
-        "peak bending stress (MPa)": max(stress.values()) / 1e6,
-        "in link": max(stress, key=stress.get),
-    }
+    row = {f"{k} transverse p-p (um)": 1e3 * res.peak_to_peak_mm(k) for k in couplers}
+    row.update({f"{k} bending p-p (um)": 1e3 * res.peak_to_peak_mm(k, "chord") for k in couplers})
+    return {**row, "peak bending stress (MPa)": max(stress.values()) / 1e6, "in link": max(stress, key=stress.get)}
 
 
 def _variant(s: Setup, v: Variant) -> Setup:
@@ -113,7 +109,8 @@ def assumption_effects(
     """
     s = as_setup(setup)
     rows = []
-    base = _row(steady_state(s))
+    couplers = s.params.linkage.couplers  # the variants change no link
+    base = _row(steady_state(s), couplers)
     rows.append({"assumption": "(defaults)", "alternative": "", **base})
     for v in variants:
         if v.is_base(s.run_params):
@@ -124,10 +121,10 @@ def assumption_effects(
             rows.append({"assumption": v.assumption, "alternative": v.label, **dict.fromkeys(base, np.nan),
                          "in link": "", "note": f"no periodic steady state found ({type(e).__name__})"})
             continue
-        rows.append({"assumption": v.assumption, "alternative": v.label, **_row(res), "note": ""})
+        rows.append({"assumption": v.assumption, "alternative": v.label, **_row(res, couplers), "note": ""})
     rows[0]["note"] = ""
     df = pd.DataFrame(rows)
-    for link in ("L2", "L3"):
+    for link in s.params.linkage.couplers:
         col = f"{link} transverse p-p (um)"
         df[f"{link} change (%)"] = _change_percent(df[col].to_numpy(), base[col])
     return df
@@ -168,7 +165,7 @@ def speed_table(setup: Setup | Params, speeds_rpm: tuple[float, ...]) -> pd.Data
         p = at.run_params
         res = steady_state(at)
         tau = np.abs(motor_torques(p, np.linspace(0.0, p.period, 181))).max(axis=0)
-        row = {"crank speed (r/min)": rpm, **_row(res)}
+        row = {"crank speed (r/min)": rpm, **_row(res, s.params.linkage.couplers)}
         row["stress / yield"] = row["peak bending stress (MPa)"] * 1e6 / p.yield_stress
         for i, torque in enumerate(tau, start=1):  # the description's cranks, in chain order
             row[f"motor {i} torque (N m)"] = torque

@@ -480,7 +480,7 @@ def compare_starts(
     starts: Sequence[str] = ("multiple scales", "rest", "quasi-static"),
     tol: float = 1e-4,
     max_periods: int = 500,
-    links: Sequence[str] = ("L2", "L3"),
+    links: Sequence[str] | None = None,
     **kwargs,
 ):
     r"""Periods Newmark needs to reach the steady state from several starts, and the error of
@@ -498,14 +498,16 @@ def compare_starts(
         failed); ``start error <start>`` (energy-norm distance of the start from the steady
         orbit at t = 0, relative to the orbit's largest energy norm); for each link
         ``<link> p2p (mm)`` of the steady state and ``<link> MS error`` (relative error of the
-        peak-to-peak of the first approximation); ``MS waveform error`` (max over the period
-        of the L2 midpoint error, relative to its largest value); ``shooting iterations``.
+        peak-to-peak of the first approximation), for ``links`` (default the description's
+        couplers: L2 and L3 of the five-bar); ``MS waveform error`` (max over the period of the
+        first link's midpoint error, relative to its largest value); ``shooting iterations``.
     """
     import pandas as pd
 
     from .steady import march, shooting
 
     base = as_setup(setup)
+    links = tuple(base.params.linkage.couplers) if links is None else tuple(links)
     rows = []
     for s in np.atleast_1d(np.asarray(speeds_rpm, float)):
         at = base.replace(crank_speed_rpm=float(s))

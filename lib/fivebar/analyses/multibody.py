@@ -20,9 +20,15 @@ deflection) are all present.
   bending stiffness ``E I`` with the in-plane depth ``params.bending_depth``, mass per length
   ``rho A`` (no rotary inertia: the library's ``rotary_inertia`` term has no counterpart).
 * The linkage is the parameter file's description (:class:`fivebar.description.linkage.Linkage`; the
-  paper's five-bar by default, or any single-loop linkage it describes).
-* Pins (B, C, D of the five-bar): the position coordinates of the two link ends are tied,
-  slopes free.  Ground pins: position fixed, slope free.
+  paper's five-bar by default, or any linkage it describes with cranks at constant speed).
+* Pins (B, C, D of the five-bar): the position coordinates of the link ends are tied, slopes
+  free.  Ground pins: position fixed, slope free.  A slider on a ground guide (a prismatic
+  joint): its links' ends tied, and the node kept on the guide by a constraint on its normal
+  coordinate, :math:`-\sin\varphi\,x + \cos\varphi\,y = \mathrm{const}`, the coordinate along
+  the guide free, with the slider's mass on it.  A joint at the end of a rigid crank: its
+  position prescribed by the drive.  Links welded into one body: their ends' positions tied
+  and their slope vectors kept at the weld's angle, :math:`\mathbf R(\psi)\mathbf r'_1 \times
+  \mathbf r'_2 = 0`.
 * Lumped masses (``m01`` at B and ``m02`` at C of the five-bar: ``ObjectGenericODE2`` mass
   matrices on the position coordinates of the pin node).
 * Crank roots (A and E of the five-bar): position fixed, and the slope vector of the root node
@@ -167,9 +173,9 @@ def build(
     lk = params.linkage
     epl = _check_mesh(params, elements_per_link)
     th = _theta(params, theta1, theta4)
-    for j in lk.cranks:
-        if j.drive.fourier or j.drive.function is not None:  # type: ignore[union-attr]
-            raise InputError(f"the drive of crank {j.name} is not at constant speed: the multibody model "
+    for j in lk.inputs:
+        if j.kind != "crank" or j.drive.fourier or j.drive.function is not None:  # type: ignore[union-attr]
+            raise InputError(f"the drive of {j.kind} {j.name} is not a crank at constant speed: the multibody model "
                              "drives its cranks at constant speed only")
     P = positions(params, *th)
     ang = link_angles(params, *th)
@@ -183,6 +189,8 @@ def build(
     reference: dict[str, NDArray] = {}
     bodies = []
     for k, lnk in enumerate(lk.links):
+        if lnk.rigid:  # no elements: its joints follow the drive (below)
+            continue
         link, a, b = lnk.name, lnk.start, lnk.end
         EA, EI = lnk.material.E * lnk.section.area, lnk.material.E * lnk.section.I
         rhoA = lnk.material.rho * lnk.section.area
@@ -208,19 +216,26 @@ def build(
     def node_at(link, joint: str) -> int:
         return nodes[link.name][0 if link.start == joint else -1]
 
-    # ground joints (crank roots and ground pins): position fixed; pins: the two link ends tied
-    for j, link in ((lk.chain[0], lk.links[0]), (lk.chain[-1], lk.links[-1])):
-        tie(node_at(link, j), 0, None)
-        tie(node_at(link, j), 1, None)
-    for k in range(1, len(lk.chain) - 1):
-        j = lk.chain[k]
-        for c in (0, 1):
-            tie(node_at(lk.links[k - 1], j), c, node_at(lk.links[k], j), c)
+    flexible = {j.name: [k for k in lk.links_at(j.name) if not k.rigid] for j in lk.joints}
+    # ground joints (crank roots and ground pins): position fixed; pins and sliders: the link ends tied
+    for j in lk.ground:
+        for lnk in flexible[j.name]:
+            tie(node_at(lnk, j.name), 0, None)
+            tie(node_at(lnk, j.name), 1, None)
+    for j in lk.joints:
+        at = flexible[j.name]
+        if j.on_ground or len(at) < 2:
+            continue
+        for lnk in at[1:]:
+            for c in (0, 1):
+                tie(node_at(at[0], j.name), c, node_at(lnk, j.name), c)
 
     # clamped, driven root cross-sections: slope vector along the crank link's angle theta(t)
     drives = []
-    for joint, th0 in zip(lk.cranks, th):
+    for joint, th0 in zip(lk.inputs, th):
         link = lk.crank_link(joint.name)
+        if link.rigid:
+            continue
         th0 = th0 if link.start == joint.name else th0 + np.pi
         drives.append((node_at(link, joint.name), th0, joint.drive.ratio * crank_speed_rad_s))  # type: ignore[union-attr]
     for root, th0, W in drives:
@@ -244,9 +259,12 @@ def build(
         mbs.AddObject(ii.ObjectConnectorCoordinateVector(
             markerNumbers=[mground_all, mk], scalingMarker0=np.zeros((1, 1)),
             constraintUserFunction=constraint, jacobianUserFunction=jacobian))
+    _joint_constraints(lk, P, ang, flexible, node_at, constraint_vector(mbs, ii, mground_all), crank_speed_rad_s,
+                       ramp)
 
-    # lumped masses at pins (B at the end of L1 and C at the end of L2 for the five-bar)
-    lumped = [(node_at(lk.links[lk.chain.index(j) - 1], j), m) for j, m in lk.masses.items() if m > 0]
+    # lumped masses at pins (B at the end of L1 and C at the end of L2 for the five-bar) and sliders
+    lumped = [(node_at(flexible[j][0], j), m) for j, m in lk.masses.items()
+              if m > 0 and flexible[j] and not lk.joint(j).on_ground and not _follows_drive(lk, j)]
     for node, m in lumped:
         mbs.AddObject(ii.ObjectGenericODE2(nodeNumbers=[node],
                                            massMatrix=np.diag([m, m, 0.0, 0.0]),
@@ -263,6 +281,99 @@ def build(
     coords = {link: np.array([list(mbs.systemData.GetNodeLTGODE2(n))[:2] for n in nn])
               for link, nn in nodes.items()}
     return MultibodyModel(params, epl, SC, mbs, nodes, coords, reference, beta, th)
+
+
+def constraint_vector(mbs, ii, mground_all: int):
+    """``add(node, n_eq, value, jac, other=None)``: a constraint of ``n_eq`` equations on the
+    coordinates (reference included) of ``node`` (after those of ``other``, when given), with
+    ``value(t, q, q_t, velocity_level)`` and its Jacobian ``jac(t, q)`` (Exudyn's
+    ObjectConnectorCoordinateVector with user functions)."""
+
+    def add(node: int, n_eq: int, value, jac, other: int | None = None) -> None:
+        markers = [mground_all if other is None else mbs.AddMarker(ii.MarkerNodeCoordinates(nodeNumber=other)),
+                   mbs.AddMarker(ii.MarkerNodeCoordinates(nodeNumber=node))]
+        mbs.AddObject(ii.ObjectConnectorCoordinateVector(
+            markerNumbers=markers, scalingMarker0=np.zeros((n_eq, 1)),
+            constraintUserFunction=lambda mbs_, t, item, q, q_t, vel: value(t, np.asarray(q), np.asarray(q_t), vel),
+            jacobianUserFunction=lambda mbs_, t, item, q, q_t, vel: jac(t, np.asarray(q))))
+    return add
+
+
+def _follows_drive(lk, joint: str) -> bool:
+    """A joint at the far end of a rigid driven crank: it moves as the drive prescribes."""
+    return any(k.rigid for k in lk.links_at(joint))
+
+
+def _joint_constraints(lk, P, ang, flexible, node_at, add, crank_speed_rad_s: float, ramp: float) -> None:
+    """The constraints beyond pins and clamped crank roots: a slider's node kept on its ground
+    guide (the normal coordinate, -sin(phi) x + cos(phi) y = const), a joint at the end of a
+    rigid crank moved by the drive, and welded arms kept at their angle at a common joint."""
+    for j in lk.joints:
+        at = flexible[j.name]
+        if not at:
+            continue
+        node = node_at(at[0], j.name)
+        if j.kind == "slider":
+            if j.guide.link is not None or j.drive is not None:
+                raise MultibodyError(f"the multibody model takes sliders on ground guides that are not driven; the "
+                                     f"slider {j.name} is {'on the link ' + j.guide.link if j.guide.link else 'driven'}")
+            sg, cg = np.sin(j.guide.angle), np.cos(j.guide.angle)
+            level = -sg * j.guide.at[0] + cg * j.guide.at[1]
+
+            def value(t, q, q_t, vel, sg=sg, cg=cg, level=level):
+                return [-sg * q_t[0] + cg * q_t[1]] if vel else [-sg * q[0] + cg * q[1] - level]
+
+            def jac(t, q, sg=sg, cg=cg):
+                J = np.zeros((1, 4))
+                J[0, 0], J[0, 1] = -sg, cg
+                return J
+            add(node, 1, value, jac)
+        elif _follows_drive(lk, j.name) and not j.on_ground:
+            crank = next(k for k in lk.links_at(j.name) if k.rigid)
+            pivot = crank.start if lk.joint(crank.start).kind == "crank" else crank.end
+            W = lk.joint(pivot).drive.ratio * crank_speed_rad_s
+            c0, r0 = np.asarray(P[pivot], float), np.asarray(P[j.name] - P[pivot], float)
+
+            def value(t, q, q_t, vel, c0=c0, r0=r0, W=W):
+                off, w, _ = _smooth_angle(t, W, ramp)
+                c, s = np.cos(off), np.sin(off)
+                r = np.array([c * r0[0] - s * r0[1], s * r0[0] + c * r0[1]])
+                if vel:
+                    return [q_t[0] + w * r[1], q_t[1] - w * r[0]]
+                return [q[0] - c0[0] - r[0], q[1] - c0[1] - r[1]]
+
+            def jac(t, q):
+                J = np.zeros((2, 4))
+                J[0, 0] = J[1, 1] = 1.0
+                return J
+            add(node, 2, value, jac)
+        first = {}
+        for lnk in at:  # welded arms: the slope of each kept at its angle to the body's first arm here
+            body = lk.body_of(lnk.name)
+            if len(body) < 2:
+                continue
+            if body not in first:
+                first[body] = lnk
+                continue
+            base = first[body]
+            psi = float(ang[lnk.name] - ang[base.name])
+            cp, sp = np.cos(psi), np.sin(psi)
+
+            def weld_jac(t, q, cp=cp, sp=sp):
+                s1, s2 = q[2:4], q[6:8]  # (the base arm's node, then this arm's)
+                r = np.array([cp * s1[0] - sp * s1[1], sp * s1[0] + cp * s1[1]])
+                J = np.zeros((1, 8))
+                J[0, 2], J[0, 3] = cp * s2[1] - sp * s2[0], -sp * s2[1] - cp * s2[0]
+                J[0, 6], J[0, 7] = -r[1], r[0]
+                return J
+
+            def weld(t, q, q_t, vel, cp=cp, sp=sp, weld_jac=weld_jac):
+                if vel:  # the constraint is free of t: its rate is J q'
+                    return [float(weld_jac(t, q)[0] @ q_t)]
+                s1, s2 = q[2:4], q[6:8]
+                r = np.array([cp * s1[0] - sp * s1[1], sp * s1[0] + cp * s1[1]])
+                return [r[0] * s2[1] - r[1] * s2[0]]
+            add(node_at(lnk, j.name), 1, weld, weld_jac, other=node_at(base, j.name))
 
 
 def frozen_system(
@@ -476,7 +587,7 @@ def multibody_steady_state(
     mbs = model.mbs
     sub = steps_per_period // S
     dt = T / steps_per_period
-    links = list(params.linkage.link_names)
+    links = [k.name for k in params.linkage.flexible]
     couplers = params.linkage.couplers
     ref = {k: model.reference[k] for k in links}
     record: list[dict[str, NDArray]] = []
@@ -546,5 +657,5 @@ def multibody_steady_state(
 def _steady(params: Params, rec: list[dict[str, NDArray]], ramp_periods: int) -> MultibodySteadyState:
     S = len(rec) - 1
     t = np.arange(S + 1) * params.period / S
-    pos = {k: np.array([r[k] for r in rec]) for k in params.linkage.link_names}
+    pos = {k.name: np.array([r[k.name] for r in rec]) for k in params.linkage.flexible}
     return MultibodySteadyState(params, t, pos, 0, np.nan, np.nan, (), 0)

@@ -203,7 +203,7 @@ def _modal_data(params: Params, n_modes: int, steps: int, motors: bool, elements
 
     dyn = LinkageDynamics(Setup(params, steps_per_period=steps, motors=motors, nonlinear=False,
                                 elements_per_link=elements_per_link))
-    B = modal_basis(dyn, n_modes)
+    B = modal_basis(dyn, n_modes, antiperiodic=True)  # (frequencies and spin softening only)
     h = np.diag(B.kinematic_stiffness.mean(axis=0)) / params.crank_speed_rad_s**2
     return B.omega, h
 

@@ -36,6 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..cache import memoised
 from ..model.dynamics import LinkageDynamics, linkage_dynamics
 from ..model.elements import euler_loads, shape_functions
+from ..model.nonlinear import _slopes
 from ..errors import ComputationError, InputError, array, number
 from ..numerics.newmark import integrate
 from ..numerics.schemes import Scheme
@@ -181,6 +182,34 @@ class Response:
                                                                          *self._angles())
         return self._cache["q"]
 
+    def axial_force(self, link: str) -> NDArray:
+        r"""Axial (membrane) force (N, tension positive) of each element of a link at the
+        samples, shape ``(samples, elements)``, the elements from the link's start to its end.
+
+        The element's mean of :math:`EA\,\epsilon` with :math:`\epsilon = V' + e`: the stretch of
+        its linear axial field, plus, where the model keeps the geometric nonlinearity, the mean
+        of the nonlinear strain :math:`e = \frac12 W'^2` (the same for every strain measure of
+        :mod:`fivebar.model.nonlinear`; the uniform measure's at every point).  It is the force
+        of the elastic deformation; the rigid-body inertia it balances is the load of (2.7).
+        """
+        m = self.dynamics.model
+        m._check_link_point(link, 0.5)
+        q = self._element_displacements()  # (N, nel, 8) in the elements' frames
+        lk = m.linkage.link(link)
+        EA = lk.material.E * lk.section.area
+        idx = [i for i, el in enumerate(m.elements) if el.link == link]
+        out = []
+        for i in idx:
+            el = m.elements[i]
+            Vp = (q[:, i, 4] - q[:, i, 0]) / el.length
+            if self.dynamics.nonlinear is not None:
+                w, g = _slopes(el.length)  # Gauss weights and slope shapes
+                Wp = q[:, i, :] @ g.T
+                Vp = Vp + 0.5 * (Wp * Wp) @ w / el.length
+            out.append(EA * Vp)
+        out = np.stack(out, axis=-1)
+        return out[:, ::-1] if m._reversed(link) else out
+
     def bending_stress(self, points: int = 11) -> dict[str, float]:
         """Peak bending stress (Pa) of each link over the samples.
 
@@ -198,42 +227,10 @@ class Response:
             for i, el in enumerate(m.elements):
                 N2 = _curvature_shapes(el.length, points)
                 kappa = np.abs(q[:, i, :] @ N2.T).max()
-                out[el.link] = max(out.get(el.link, 0.0), p.E * 0.5 * p.bending_depth * kappa)
+                link = m.linkage.link(el.link)  # its own material and section
+                out[el.link] = max(out.get(el.link, 0.0), link.material.E * 0.5 * link.section.bending_depth * kappa)
             self._cache[key] = out
         return dict(self._cache[key])
-
-    def axial_force(self) -> dict[str, NDArray]:
-        r"""Axial force (N, tension positive) of every element of each link at the samples.
-
-        ``N = response.axial_force()["L2"]``: shape (samples, elements of the link).
-
-        The force of an element is :math:`N = EA\,(V' + \bar e)`: its stretch
-        :math:`V' = (u_2 - u_1)/L` and, where the model is nonlinear, the element mean of the
-        membrane strain of a bent element :math:`\bar e = \frac1{2L}\int_0^L W'^2\,d\bar x`
-        (the same for every strain measure of :mod:`fivebar.model.nonlinear`; the energy's
-        derivative with respect to the stretch).  In the linear model :math:`N = EA\,V'`.  The
-        force is the one the elastic links carry: the rigid-body inertia of the KED model loads
-        the links through the elastic deformation.
-        """
-        if "axial" not in self._cache:
-            from ..model.nonlinear import _slopes
-
-            dyn = self.dynamics
-            m = dyn.model
-            q = self._element_displacements()  # (N, nel, 8)
-            links = {k.name: k for k in dyn.params.linkage.links}
-            out: dict[str, list[NDArray]] = {}
-            for i, el in enumerate(m.elements):
-                link = links[el.link]
-                EA = link.material.E * link.section.area
-                L = el.length
-                strain = (q[:, i, 4] - q[:, i, 0]) / L
-                if dyn.nonlinear is not None:
-                    w, g = _slopes(L)
-                    strain = strain + 0.5 / L * ((q[:, i, :] @ g.T) ** 2 @ w)
-                out.setdefault(el.link, []).append(EA * strain)
-            self._cache["axial"] = {k: np.stack(v, axis=-1) for k, v in out.items()}
-        return {k: v.copy() for k, v in self._cache["axial"].items()}
 
     def buckling(self, effective_length_factor: float | None = None) -> dict[str, dict[str, float]]:
         """The buckling check of every link: its largest compressive axial force over the samples
@@ -252,8 +249,8 @@ class Response:
             effective_length_factor = params.buckling_length_factor
         links = {k.name: k for k in params.linkage.links}
         out = {}
-        for name, N in self.axial_force().items():
-            comp = float(max(0.0, -N.min()))
+        for name in dict.fromkeys(el.link for el in self.dynamics.model.elements):  # the elastic links
+            comp = float(max(0.0, -self.axial_force(name).min()))
             p_in, p_out = euler_loads(links[name], effective_length_factor)
             out[name] = {"largest compression (N)": comp, "Euler load in plane (N)": p_in,
                          "Euler load out of plane (N)": p_out, "compression / Euler load": comp / min(p_in, p_out)}

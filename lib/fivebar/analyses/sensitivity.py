@@ -220,7 +220,8 @@ def check_inputs(inputs: Iterable[UncertainInput | str], params: Params,
             raise SensitivityError(f"input {inp!r} is not allowed: give an UncertainInput or the key of one")
         if inp.key not in params.values:
             raise SensitivityError(f"input key {inp.key!r} names no parameter: use a dotted key of the parameter file, "
-                                   "e.g. 'material.E', 'masses.m02', 'assumptions.damping_ratio' or 'motor1.p'")
+                                   "e.g. 'material.E', 'assumptions.damping_ratio', an entry of [masses] or of a "
+                                   "[motor<k>] section")
         if any(o.key == inp.key for o in out):
             raise SensitivityError(f"input {inp.key!r} is given twice")
         out.append(inp)
@@ -316,12 +317,23 @@ class ResonanceSpeed:
         return float(hit["speed (r/min)"].iloc[0])
 
 
-#: The named outputs (:func:`output`); any callable of a Setup that returns a number serves as well.
+def _midpoint_outputs() -> dict[str, Callable[[Setup], float]]:
+    """The midpoint outputs of the book's linkage's couplers (L2 and L3 of the paper's five-bar,
+    Figure 6), named from its description."""
+    from ..description.params import load_params
+
+    couplers = load_params().linkage.couplers
+    out: dict[str, Callable[[Setup], float]] = {f"{k} p-p (um)": MidpointPeakToPeak(k) for k in couplers}
+    out.update({f"{k} bending p-p (um)": MidpointPeakToPeak(k, "chord") for k in couplers})
+    return out
+
+
+#: The named outputs (:func:`output`): the peak-to-peak midpoint deflections of the couplers of the
+#: book's linkage ("L2 p-p (um)", "L3 p-p (um)", "L2 bending p-p (um)", "L3 bending p-p (um)"), the
+#: largest Floquet multiplier, stress / yield and a resonance speed; any callable of a Setup that
+#: returns a number serves as well (:class:`MidpointPeakToPeak` of any link of any linkage).
 SCALAR_OUTPUTS: dict[str, Callable[[Setup], float]] = {
-    "L2 p-p (um)": MidpointPeakToPeak("L2"),
-    "L3 p-p (um)": MidpointPeakToPeak("L3"),
-    "L2 bending p-p (um)": MidpointPeakToPeak("L2", "chord"),
-    "L3 bending p-p (um)": MidpointPeakToPeak("L3", "chord"),
+    **_midpoint_outputs(),
     "max |multiplier|": SteadyStateOutput("max |multiplier|"),
     "stress / yield": SteadyStateOutput("stress / yield"),
     "resonance speed, mode 1 x harmonic 2 (r/min)": ResonanceSpeed(2, 1),

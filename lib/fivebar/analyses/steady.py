@@ -205,7 +205,7 @@ class SteadyState(Response):
             p = self.dynamics.params
             stress = self.bending_stress()
             s_link = max(stress, key=stress.get)
-            lengths = {k.name: k.length for k in p.linkage.links}
+            lengths = {k.name: k.length for k in p.linkage.flexible}  # (a rigid link does not deflect)
             defl = {k: float(np.abs(self.midpoint_mm(k, "chord")).max()) * 1e-3 / L for k, L in lengths.items()}
             d_link = max(defl, key=defl.get)
             buck = self.buckling()

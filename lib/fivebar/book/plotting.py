@@ -279,6 +279,9 @@ def draw_linkage(
 ) -> dict[str, Any]:
     """Draw the linkage of the description (the five-bar of Figure 1) in one configuration.
 
+    Any linkage of the description: its links, pins, ground pivots (a hatched triangle each),
+    and each slider as a square block on its guide (a ground guide dashed).
+
     ``draw_linkage(ax, params, 0.0, 0.0, labels=True, masses=True)`` draws the labelled
     mechanism; ``draw_linkage(ax, params, t1, t4, color="0.8", lw=1, joints=False,
     ground=False)`` a ghosted position.
@@ -291,7 +294,7 @@ def draw_linkage(
         The parameter set (lengths in m).
     theta1, theta4
         Crank angles (rad) of AB and ED: one configuration, scalars (``theta1`` alone for a
-        linkage with one driven crank).
+        linkage with one driven input; a driven slider's position in m).
     mode
         Assembly mode of :func:`fivebar.model.kinematics.positions`.
     color
@@ -327,20 +330,31 @@ def draw_linkage(
     lk = params.linkage
     P = {k: scale * np.asarray(v) for k, v in positions(params, *th, mode=mode).items()}
     out: dict[str, Any] = {"links": {}, "joints": [], "ground": [], "masses": [], "labels": {}}
-    chain, g0, g1 = lk.chain, lk.chain[0], lk.chain[-1]
+    # the chain form: its joints in order and the frame between its ends; any other linkage:
+    # its joints, a ground symbol at each ground pivot and the guides of its sliders
+    chain = lk.chain if lk.chain is not None else tuple(j.name for j in lk.joints)
+    pivots = (chain[0], chain[-1]) if lk.chain is not None else tuple(j.name for j in lk.ground)
     centre = np.mean([P[k] for k in chain], axis=0)
     frame_name = f"L{len(lk.links) + 1}" if all(k.name == f"L{i + 1}" for i, k in enumerate(lk.links)) else "frame"
     colors = link_colors(lk)
     colors[frame_name] = LINK_COLORS["L5"]
 
     if ground:
-        (frame,) = ax.plot(*np.transpose([P[g0], P[g1]]), ls="--", lw=1.0, color=LINK_COLORS["L5"], zorder=zorder - 0.5)
-        out["links"][frame_name] = frame
+        if lk.chain is not None:
+            (frame,) = ax.plot(*np.transpose([P[pivots[0]], P[pivots[1]]]), ls="--", lw=1.0, color=LINK_COLORS["L5"],
+                               zorder=zorder - 0.5)
+            out["links"][frame_name] = frame
         size = 0.08 * scale * lk.lengths[-1]
-        for k in (g0, g1):
+        for k in pivots:
             x, y = P[k]
             tri = np.array([[x, y], [x - size / 2, y - size], [x + size / 2, y - size]])
             out["ground"].append(ax.fill(*tri.T, facecolor="none", edgecolor="0.2", lw=1.0, hatch="///", zorder=zorder - 0.5)[0])
+        span = 0.6 * scale * max(k.length for k in lk.links)
+        for j in lk.sliders:  # a ground guide: a dashed line through the slider along the guide
+            if j.guide.link is None:
+                d = span * j.guide.direction
+                out["ground"].append(ax.plot(*np.transpose([P[j.name] - d, P[j.name] + d]), ls="--", lw=1.0,
+                                             color=LINK_COLORS["L5"], zorder=zorder - 0.5)[0])
     for name, (s, e) in lk.link_ends.items():
         c = colors[name] if color is None else color
         (line,) = ax.plot(*np.transpose([P[s], P[e]]), color=c, lw=lw, alpha=alpha, solid_capstyle="round", zorder=zorder)
@@ -350,6 +364,9 @@ def draw_linkage(
         out["joints"].append(
             ax.scatter(*xy.T, s=28, facecolor="white", edgecolor="black", linewidth=1.0, alpha=alpha, zorder=zorder + 1)
         )
+        for j in lk.sliders:  # the slider block
+            out["joints"].append(ax.scatter(*P[j.name], s=160, marker="s", facecolor="none", edgecolor="black",
+                                            linewidth=1.0, alpha=alpha, zorder=zorder + 0.8))
     # joint labels sit outside the loop, in the direction from its centre to the joint
     away = {k: (P[k] - centre) / (np.hypot(*(P[k] - centre)) or 1.0) for k in chain}
     if masses:
@@ -367,7 +384,7 @@ def draw_linkage(
             out["labels"][k] = ax.annotate(
                 k, P[k], xytext=tuple(16 * away[k]), textcoords="offset points", ha="center", va="center", fontweight="bold"
             )
-        ends = dict(lk.link_ends, **{frame_name: (g0, g1)})
+        ends = dict(lk.link_ends, **({frame_name: pivots} if lk.chain is not None else {}))
         for name, (s, e) in ends.items():
             # the frame's label sits at 3/4 of AE, clear of B at theta1 = 0 when L1 = L5/2
             mid = P[s] + (0.75 if name == frame_name else 0.5) * (P[e] - P[s])

@@ -30,7 +30,8 @@ from typing import Any
 from ..errors import FivebarError, ParameterError, ValidityWarning, plain
 from .linkage import Linkage, Material, Section, linkage_from_toml
 
-__all__ = ["Motor", "Motors", "Params", "load_params", "DEFAULT_PARAMS_PATH", "FOURBAR_PARAMS_PATH"]
+__all__ = ["Motor", "Motors", "Params", "load_params", "DEFAULT_PARAMS_PATH", "FOURBAR_PARAMS_PATH",
+           "SIXBAR_PARAMS_PATH", "SLIDER_CRANK_PARAMS_PATH"]
 
 #: The parameter file shipped with the package (``fivebar/data/wang2011.toml``, package data
 #: read through ``importlib.resources``; ``data/wang2011.toml`` of the repository links to it).
@@ -38,6 +39,13 @@ DEFAULT_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "wang2011.t
 #: A four-bar crank-rocker's description, to layer over the defaults:
 #: ``load_params([DEFAULT_PARAMS_PATH, FOURBAR_PARAMS_PATH])`` (``fivebar/data/fourbar.toml``).
 FOURBAR_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "fourbar.toml"))
+#: The flexible slider-crank of Simeon's benchmark (the IVP test set's problem "crank"), to layer
+#: over the defaults: ``load_params([DEFAULT_PARAMS_PATH, SLIDER_CRANK_PARAMS_PATH])``
+#: (``fivebar/data/slider_crank.toml``).
+SLIDER_CRANK_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "slider_crank.toml"))
+#: A Watt six-bar (two four-bars in series through a bell crank), to layer over the defaults:
+#: ``load_params([DEFAULT_PARAMS_PATH, SIXBAR_PARAMS_PATH])`` (``fivebar/data/sixbar.toml``).
+SIXBAR_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "sixbar.toml"))
 
 
 # --- the schema: dotted TOML key -> (rule, unit) ---------------------------------------------

@@ -23,15 +23,28 @@ number of elements (the description's mesh, the paper's 1-2-2-1, by default), wi
   is clamped (slope zero) and the motor elements are left out.  ``tie_crank_roots=False`` is
   the literal reading of (A.12), which leaves the crank-root slopes free and K singular;
 * a ground pin does not translate; its slope is free and its curvature zero (no moment);
-* interior nodes of a link carry x, y, slope and curvature.
+* interior nodes of a link carry x, y, slope and curvature;
+* a slider on a ground guide (a prismatic joint) keeps only the translation along its guide:
+  the translation normal to the guide is eliminated, the DOF left is the component along it
+  (its node's translations are written in the guide's frame), with the slider block's mass
+  on it; its links keep their own slopes, with zero curvature (the block is pinned to them).
+  A driven slider does not translate (its motion is prescribed), nor does a pin at the far
+  end of a rigid driven crank (``rigid = true``: the crank carries no element);
+* links welded into one body share the slope at their common joint (the body's rotation) and
+  keep their own curvatures there (the weld carries a moment).
 
 Supports and joints are imposed by identifying or eliminating DOFs, never by penalty springs.
-Walking the chain in this order numbers the DOFs exactly as the paper does (U1-U8 motors, then
-u9 ... u32), which :meth:`Model.paper_numbering` shows.
+Walking the links in the description's order (the chain's, for the chain form), each from
+its first to its last finite-element joint, numbers the DOFs; for the paper's five-bar exactly
+as the paper does (U1-U8 motors, then u9 ... u32), which :meth:`Model.paper_numbering` shows.
+A slider on a moving link is not a joint of this model (the contact point would run along the
+guide link's elements): :func:`build_model` refuses it.
 
 Element DOFs are [u1, w1, w1', w1'', u2, w2, w2', w2''] in the element frame (u along the
 element from its first to its second node, w to the left); the global translations are
-:math:`(X, Y)` with :math:`u = X\cos\beta + Y\sin\beta`, :math:`w = -X\sin\beta + Y\cos\beta`.
+:math:`(X, Y)` with :math:`u = X\cos\beta + Y\sin\beta`, :math:`w = -X\sin\beta + Y\cos\beta`,
+or, at a slider node, the translations :math:`(S, N)` along and normal to its guide (angle
+:math:`\varphi`) with :math:`\beta - \varphi` in place of :math:`\beta` and :math:`N = 0`.
 """
 
 from __future__ import annotations
@@ -76,10 +89,11 @@ _AXIAL = np.array([1.0, 0, 0, 0, 1.0, 0, 0, 0])
 
 @dataclass(frozen=True)
 class Dof:
-    """One generalised coordinate: ``kind`` is x, y, slope, curvature (beam) or the motor's
-    U1..U4 kinds rotor_x, rotor_y, torsion_bearing, torsion_coupling; ``where`` names the node
-    ("B", "L2[1]" for interior node 1 of L2, "motor1"); ``link`` the link whose slope or
-    curvature it is (None for shared translations and motor DOFs)."""
+    """One generalised coordinate: ``kind`` is x, y, s (the translation of a slider along its
+    guide), slope, curvature (beam) or the motor's U1..U4 kinds rotor_x, rotor_y,
+    torsion_bearing, torsion_coupling; ``where`` names the node ("B", "L2[1]" for interior node
+    1 of L2, "motor1"); ``link`` the link whose slope or curvature it is (None for shared
+    translations and motor DOFs)."""
 
     label: str
     kind: str
@@ -92,8 +106,10 @@ class ElementInfo:
     """One beam element: its link, index along the link, end fractions and DOF indices.
 
     ``dofs`` holds, for the 8 local DOFs, the index of the global DOF (or -1 where the local
-    DOF is held at zero: translation at a crank root, curvature at a pin).  ``s0, s1`` are the
-    fractions along the link in the chain direction (elements run along the chain).
+    DOF is held at zero: translation at a crank root, curvature at a pin, the normal
+    translation at a slider).  ``s0, s1`` are the fractions along the link in the direction of
+    its elements (:meth:`fivebar.description.linkage.Linkage.fe_ends`: along the chain for the
+    chain form).  ``frames`` the angles of its nodes' translation frames.
     """
 
     link: str
@@ -102,6 +118,8 @@ class ElementInfo:
     s1: float
     length: float
     dofs: tuple[int, ...]
+    #: angle (rad) of the frame of each node's translations: 0 (global x, y), or a slider's guide
+    frames: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass
@@ -139,10 +157,12 @@ class Model:
         return self.params.linkage
 
     def _reversed(self, link: str) -> bool:
-        """Whether the chain direction of a link is opposite to its kinematic direction."""
-        lk = self.linkage
-        k = lk.link_names.index(link)
-        return lk.chain_sign(k) < 0
+        """Whether the direction of a link's elements is opposite to its kinematic direction."""
+        return self.linkage.fe_reversed(link)
+
+    def _node_link(self, node: str) -> str:
+        """The link a translating joint's node is read on: the first link with elements there."""
+        return next(k.name for k in self.linkage.links_at(node) if not k.rigid)
 
     def _node_location(self, node: str) -> tuple[str, float]:
         """(link, fraction along the link's kinematic direction) of a translating node."""
@@ -150,11 +170,24 @@ class Model:
         if "[" in node:
             link, j = node[:-1].split("[")
             s = int(j) / self.elements_per_link[lk.link_names.index(link)]
-        else:  # a pin: the end of the link that ends there in the chain
-            link, s = lk.links[lk.chain.index(node) - 1].name, 1.0
+        else:  # a joint: an end of the first link with elements there
+            link = self._node_link(node)
+            s = 1.0 if lk.fe_ends(link)[1] == node else 0.0
         if self._reversed(link):
             s = 1.0 - s
         return link, s
+
+    @property
+    def node_frames(self) -> dict[str, float]:
+        """Node -> angle (rad) of the frame of its translations, for the slider nodes (whose
+        one translation DOF is along the guide); the other nodes' frame is the global one."""
+        return {j.name: j.guide.angle for j in self.linkage.sliders  # type: ignore[union-attr]
+                if j.name in self.node_dofs}
+
+    @property
+    def element_frames(self) -> NDArray:
+        """(n_elements, 2) angles (rad) of the translation frames of every element's nodes."""
+        return np.array([el.frames for el in self.elements], float).reshape(len(self.elements), 2)
 
     # --- configuration-dependent matrices --------------------------------------------------
     def element_angles(self, angles: dict[str, NDArray]) -> list[NDArray]:
@@ -167,16 +200,27 @@ class Model:
             out.append(beta)
         return out
 
-    def _rotations(self, beta: NDArray) -> NDArray:
-        c, s = np.cos(beta), np.sin(beta)
+    def _rotations(self, beta: NDArray, frames: ArrayLike | None = None, derivative: bool = False) -> NDArray:
+        """R (local <- global) of elements at axis angles ``beta`` (...), its nodes'
+        translations in frames turned by ``frames`` (..., 2) (rad; None: the global frame);
+        ``derivative``: dR/dbeta."""
+        beta = np.asarray(beta)
         R = np.zeros(beta.shape + (8, 8))
-        for k in (0, 4):
+        if frames is None or not np.any(frames):
+            cs = [(np.cos(beta), np.sin(beta))] * 2
+        else:
+            f = np.asarray(frames, float)
+            cs = [(np.cos(beta - f[..., i]), np.sin(beta - f[..., i])) for i in (0, 1)]
+        for k, (c, s) in zip((0, 4), cs):
+            if derivative:  # d/dbeta of [[c, s], [-s, c]]
+                c, s = -s, c
             R[..., k, k] = c
             R[..., k, k + 1] = s
             R[..., k + 1, k] = -s
             R[..., k + 1, k + 1] = c
-        for k in (2, 3, 6, 7):
-            R[..., k, k] = 1.0
+        if not derivative:
+            for k in (2, 3, 6, 7):
+                R[..., k, k] = 1.0
         return R
 
     def matrices(self, *theta: ArrayLike, mode: int | None = None) -> tuple[NDArray, NDArray]:
@@ -192,15 +236,16 @@ class Model:
         M = np.zeros(shape + (n, n))
         K = np.zeros(shape + (n, n))
         for el, beta in zip(self.elements, self.element_angles(angles)):
-            R = self._rotations(np.broadcast_to(beta, shape))
+            R = self._rotations(np.broadcast_to(beta, shape), el.frames)
             keep = [i for i, d in enumerate(el.dofs) if d >= 0]
             g = np.array([el.dofs[i] for i in keep])
             Rk = R[..., :, keep]  # local <- kept global
             M[..., g[:, None], g[None, :]] += np.swapaxes(Rk, -1, -2) @ self.Me[el.link] @ Rk
             K[..., g[:, None], g[None, :]] += np.swapaxes(Rk, -1, -2) @ self.Ke[el.link] @ Rk
         for node, m in self.lumped.items():
-            for d in self.node_dofs[node]:
-                M[..., d, d] += m
+            for d in self.node_dofs.get(node, ()):  # (a joint that does not translate carries none)
+                if d >= 0:
+                    M[..., d, d] += m
         for i, idx in self.motor_dofs.items():
             g = np.array(idx)
             M[..., g[:, None], g[None, :]] += self.Mm[i]
@@ -211,8 +256,9 @@ class Model:
     def corotating_transform(self, *theta: ArrayLike, mode: int | None = None) -> NDArray:
         """T with u = T q~: translations of every node expressed in a frame that turns with it.
 
-        Interior nodes of a link turn with that link; a pin turns with the link that ends there
-        in the chain (for the five-bar B, C, D with L1, L2, L3).  Slopes, curvatures and motor DOFs are unchanged.
+        Interior nodes of a link turn with that link; a pin turns with the first link with
+        elements there (for the five-bar B, C, D with L1, L2, L3).  Slopes, curvatures, motor DOFs
+        and a slider's translation along its fixed guide are unchanged.
         In these coordinates M and K vary with the configuration only through the angles
         between links, so their period means are meaningful (in the global frame they are
         not: averaging smears each link's axial stiffness over every direction).
@@ -223,9 +269,10 @@ class Model:
         T = np.zeros(shape + (self.n, self.n))
         idx = np.arange(self.n)
         T[..., idx, idx] = 1.0
-        chain, links = self.linkage.chain, self.linkage.links
         for node, (ix, iy) in self.node_dofs.items():
-            link = node.split("[")[0] if "[" in node else links[chain.index(node) - 1].name
+            if iy < 0:  # a slider: its one DOF lies along the fixed guide
+                continue
+            link = node.split("[")[0] if "[" in node else self._node_link(node)
             c, s = np.cos(angles[link]), np.sin(angles[link])
             T[..., ix, ix], T[..., ix, iy] = c, -s
             T[..., iy, ix], T[..., iy, iy] = s, c
@@ -237,9 +284,14 @@ class Model:
         out = np.zeros(shape + (self.n,))
         g = self.params.gravity if order == 2 else 0.0
         rate = state.omega if order == 1 else state.alpha
+        frames = self.node_frames
         for node, (ix, iy) in self.node_dofs.items():
             link, s = self._node_location(node)
             v = state.point(link, s)[order]
+            if node in frames:  # a slider: the component along its guide
+                phi = frames[node]
+                out[..., ix] = v[..., 0] * np.cos(phi) + (v[..., 1] + g) * np.sin(phi)
+                continue
             out[..., ix] = v[..., 0]
             out[..., iy] = v[..., 1] + g
         for i, d in enumerate(self.dofs):
@@ -252,13 +304,59 @@ class Model:
     def rigid_acceleration(self, state: RigidState) -> NDArray:
         """The rigid acceleration array u_r'' of (2.7) in the generalised coordinates.
 
-        Translation DOFs: the rigid acceleration of the node (global x, y, m/s^2), plus the
-        gravity assumption (``params.gravity`` along -y enters as +g on y); slope DOFs: the
+        Translation DOFs: the rigid acceleration of the node (global x, y, m/s^2; at a slider
+        its component along the guide), plus the gravity assumption (``params.gravity`` along
+        -y enters as +g on y); slope DOFs: the
         link's angular acceleration (rad/s^2); curvature DOFs: zero (the quintic shape
         functions reproduce a rigid motion exactly); motor rotor DOFs: zero (the stator is
         fixed); motor torsion DOFs: the crank's angular acceleration.
         """
         return self._rigid_field(state, 2)
+
+    def prescribed_load(self, state: RigidState) -> NDArray:
+        r"""The inertial load on the DOFs from the rigid motion of the DOFs the joints eliminate.
+
+        The elastic DOFs of a joint that moves as the drives prescribe (the far joint of a
+        rigid crank, a driven slider) or turns with a clamped crank root under a non-uniform
+        drive are eliminated, but their rigid acceleration loads the elements they belong to:
+        :math:`-\mathbf M_{ke}\ddot{\mathbf u}_{r,e}`, with :math:`\mathbf M_{ke}` the consistent
+        mass between the kept and the eliminated DOFs of each element.  Zero for joints on the
+        ground and for crank roots at constant speed (the paper's five-bar).  Shape
+        ``(..., n)`` (N, N m); (2.7)'s right-hand side is :math:`-\mathbf M\ddot{\mathbf u}_r`
+        plus this.
+        """
+        shape = np.shape(state.angle[self.elements[0].link])
+        out = np.zeros(shape + (self.n,))
+        for el, beta in zip(self.elements, self.element_angles(state.angle)):
+            a = np.zeros(shape + (8,))
+            moving = False
+            for node, first in ((0, True), (1, False)):
+                loc = 4 * node
+                at_end = el.index == 0 if first else el.index == self.elements_per_link[
+                    self.linkage.link_names.index(el.link)] - 1
+                if not at_end:
+                    continue
+                joint = self.linkage.fe_ends(el.link)[0 if first else 1]
+                if el.dofs[loc] < 0 or el.dofs[loc + 1] < 0:
+                    acc = state.acc[joint]
+                    phi = el.frames[node]
+                    c, sn = np.cos(phi), np.sin(phi)
+                    comp = (acc[..., 0] * c + acc[..., 1] * sn, -acc[..., 0] * sn + acc[..., 1] * c)
+                    for k in (0, 1):
+                        if el.dofs[loc + k] < 0 and np.any(comp[k]):
+                            a[..., loc + k] = comp[k]
+                            moving = True
+                if el.dofs[loc + 2] < 0 and np.any(state.alpha[el.link]):
+                    a[..., loc + 2] = state.alpha[el.link]
+                    moving = True
+            if not moving:
+                continue
+            R = self._rotations(np.broadcast_to(beta, shape), el.frames)
+            Mg = np.swapaxes(R, -1, -2) @ self.Me[el.link] @ R
+            keep = [i for i, d in enumerate(el.dofs) if d >= 0]
+            g = np.array([el.dofs[i] for i in keep])
+            out[..., g] -= np.einsum("...ij,...j->...i", Mg[..., keep, :], a)
+        return out
 
     def rigid_velocity(self, state: RigidState) -> NDArray:
         """The rigid velocity field in the generalised coordinates (as :meth:`rigid_acceleration`,
@@ -279,7 +377,7 @@ class Model:
         padded = np.concatenate([u, np.zeros(u.shape[:-1] + (1,))], axis=-1)  # index -1 -> 0
         out = []
         for el, beta in zip(self.elements, self.element_angles(angles)):
-            R = self._rotations(np.asarray(beta))
+            R = self._rotations(np.asarray(beta), el.frames)
             out.append((R @ padded[..., list(el.dofs)][..., None])[..., 0])
         return np.stack(out, axis=-2)
 
@@ -304,6 +402,10 @@ class Model:
             raise InputError(f"s = {s!r} is not allowed: give a fraction of the link in [0, 1]")
         if link not in self.linkage.link_names:
             raise InputError(f"link = {link!r} is not allowed: use one of {list(self.linkage.link_names)}")
+        if self.linkage.link(link).rigid:
+            flexible = [k.name for k in self.linkage.flexible]
+            raise InputError(f"link = {link!r} is not allowed: it is rigid (no elastic displacement); use one of "
+                             f"{flexible}")
 
     def link_point(self, q: ArrayLike, link: str, s: float, derivative: int = 0) -> tuple[NDArray, NDArray]:
         """:meth:`link_displacement` from the element displacements ``q`` already computed
@@ -343,7 +445,8 @@ class Model:
             n = np.array([-e[1], e[0]])
             pts = []
             for s in np.linspace(0.0, 1.0, points):
-                ax, tr = self.link_displacement(u, *theta, link, s, mode=mode)
+                ax, tr = (0.0, 0.0) if self.linkage.link(link).rigid else \
+                    self.link_displacement(u, *theta, link, s, mode=mode)
                 pts.append(P[a] + s * d + scale * (ax * e + tr * n))
             out[link] = np.array(pts)
         return out
@@ -393,15 +496,17 @@ def build_model(
         Parameter set; its ``linkage`` gives the links (length, section, material), joints,
         lumped masses and motors.
     elements_per_link
-        Elements on each link in the order of the chain (each >= 1); ``None`` is the
-        description's mesh (for the paper's five-bar (1, 2, 2, 1) on L1..L4).
+        Elements on each link in the order of the description (each >= 1, 0 on a rigid link);
+        ``None`` is the description's mesh (for the paper's five-bar (1, 2, 2, 1) on L1..L4).
     motors
         Include the motor elements of the motor-driven cranks (DOFs U1-U8 for the five-bar)
         with the crank roots tied to the shaft torsion; ``False`` clamps the crank roots
         (rigid motor shafts).
     tie_crank_roots
-        ``False`` gives the literal reading of (A.12) (crank-root slopes independent of the
-        motors: singular K); only meaningful with ``motors=True``.
+        ``False`` gives the literal reading of (A.12): crank-root slopes independent of the
+        motors, and free where a crank has no motor (the pin of a rigid crank then translates
+        freely): singular K, the free-rotor model's starting point
+        (:class:`fivebar.model.free_rotors.FlexibleLinkage`).
     """
     lk = params.linkage
     epl = lk.check_mesh(elements_per_link)
@@ -428,31 +533,67 @@ def build_model(
 
     node_dofs: dict[str, tuple[int, int]] = {}
     elements: list[ElementInfo] = []
+    body = {name: b for b in lk.bodies for name in b}
+    # joints that do not translate elastically: on the ground, a driven slider, the far end of a rigid crank
+    fixed = {j.name for j in lk.joints if j.on_ground or (j.kind == "slider" and j.drive is not None)}
+    if tie_crank_roots:  # (the literal model leaves a rigid crank free to turn: its pin then translates)
+        fixed |= {x for k in lk.links if k.rigid for x in (k.start, k.end) if not lk.joint(x).on_ground}
+    shared: dict[tuple[str, tuple[str, ...]], int] = {}  # (joint, body) -> the slope welded arms share
+
+    def slope_at(link: str, joint: str, label_link: str) -> int:
+        key = (joint, body[link])
+        if key not in shared:
+            shared[key] = new(f"{label_link}@{joint}.slope", "slope", joint, label_link)
+        return shared[key]
+
     for k, (lnk, ne) in enumerate(zip(lk.links, epl)):
-        link, first, last = lnk.name, lk.chain[k], lk.chain[k + 1]
+        if lnk.rigid:
+            continue
+        link = lnk.name
+        first, last = lk.fe_ends(link)
         # nodal DOFs of this link: (x, y, slope, curvature) with -1 for zero
         nodes: list[tuple[int, int, int, int]] = []
+        frames = [0.0, 0.0]
         for j in range(ne + 1):
             joint = first if j == 0 else last if j == ne else None
             kind = lk.joint(joint).kind if joint is not None else None
+            welded = joint is not None and any(
+                x.name != link and not x.rigid and body[x.name] == body[link] for x in lk.links_at(joint))
             if kind == "crank":
                 if joint in root_motor and tie_crank_roots:
                     slope = motor_dofs[root_motor[joint]][3]
                     paper.append(slope)  # the paper's u9 / u31 is U4 / U8
-                elif joint in root_motor:
-                    slope = new(f"{link}@{joint}.slope", "slope", joint, link)
+                elif joint in root_motor or not tie_crank_roots:
+                    slope = slope_at(link, joint, link)
                 else:
                     slope = -1
                 curv = new(f"{link}@{joint}.curvature", "curvature", joint, link)  # after the slope, as u10, u32
                 nodes.append((-1, -1, slope, curv))
-            elif kind == "ground":  # a ground pin: no translation, own slope, zero curvature
-                slope = new(f"{link}@{joint}.slope", "slope", joint, link)
-                nodes.append((-1, -1, slope, -1))
-            elif joint is not None:  # a pin: shared translation, own slope, zero curvature
-                if joint not in node_dofs:
-                    node_dofs[joint] = (new(f"{joint}.x", "x", joint), new(f"{joint}.y", "y", joint))
-                slope = new(f"{link}@{joint}.slope", "slope", joint, link)
-                nodes.append((*node_dofs[joint], slope, -1))
+            elif kind == "ground":  # a ground pin: no translation, own slope, zero curvature (welded: own)
+                slope = slope_at(link, joint, link)
+                curv = new(f"{link}@{joint}.curvature", "curvature", joint, link) if welded else -1
+                nodes.append((-1, -1, slope, curv))
+            elif joint is not None:  # a pin or a slider: shared translation, own slope, zero curvature
+                J = lk.joint(joint)
+                if joint in fixed:
+                    xy = (-1, -1)
+                elif J.kind == "slider":  # the translation along the guide; the normal one eliminated
+                    if J.guide.link is not None:  # type: ignore[union-attr]
+                        raise InputError(
+                            f"the slider {joint} moves on the link {J.guide.link}: the finite-element model takes "  # type: ignore[union-attr]
+                            "sliders on ground guides only (on a moving link the contact point runs along that "
+                            "link's elements); its rigid kinematics are available (fivebar.model.kinematics)")
+                    if joint not in node_dofs:
+                        node_dofs[joint] = (new(f"{joint}.s", "s", joint), -1)
+                    xy = node_dofs[joint]
+                    frames[0 if j == 0 else 1] = J.guide.angle  # type: ignore[union-attr]
+                else:
+                    if joint not in node_dofs:
+                        node_dofs[joint] = (new(f"{joint}.x", "x", joint), new(f"{joint}.y", "y", joint))
+                    xy = node_dofs[joint]
+                slope = slope_at(link, joint, link)
+                curv = new(f"{link}@{joint}.curvature", "curvature", joint, link) if welded else -1
+                nodes.append((*xy, slope, curv))
             else:  # interior node
                 name = f"{link}[{j}]"
                 ix, iy = new(f"{name}.x", "x", name), new(f"{name}.y", "y", name)
@@ -463,13 +604,15 @@ def build_model(
         Le = lnk.length / ne
         for j in range(ne):
             a, b = nodes[j], nodes[j + 1]
+            fr = (frames[0] if j == 0 else 0.0, frames[1] if j == ne - 1 else 0.0)
             elements.append(
-                ElementInfo(link, j, j / ne, (j + 1) / ne, Le, (a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]))
+                ElementInfo(link, j, j / ne, (j + 1) / ne, Le, (a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]), fr)
             )
 
     Me, Ke = {}, {}
     for lnk, ne in zip(lk.links, epl):
-        Me[lnk.name], Ke[lnk.name] = _link_element(lnk, ne, params)
+        if not lnk.rigid:
+            Me[lnk.name], Ke[lnk.name] = _link_element(lnk, ne, params)
     Mm, Km = {}, {}
     for i, (_, section) in enumerate(lk.motors if motors else (), start=1):
         Mm[i], Km[i] = motor_element(params.motors[section])

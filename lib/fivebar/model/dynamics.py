@@ -6,8 +6,10 @@ r"""The time-varying equation of motion (2.7) of the linkage over one period of 
     + \mathbf f_{nl}(\mathbf u, t) = \mathbf P - \mathbf M(t)\ddot{\mathbf u}_r(t) ,
 
 the kineto-elastodynamic equation: the elastic deflections :math:`\mathbf u` ride on the
-rigid motion prescribed by the crank laws and are driven by its inertia
-:math:`-\mathbf M\ddot{\mathbf u}_r` (:meth:`fivebar.model.assembly.Model.rigid_acceleration`);
+rigid motion prescribed by the drive laws and are driven by its inertia
+:math:`-\mathbf M\ddot{\mathbf u}_r` (:meth:`fivebar.model.assembly.Model.rigid_acceleration`), and
+by the inertia of the rigid motion of the DOFs a joint eliminates where that joint moves (the
+pin of a rigid crank, a driven slider: :meth:`fivebar.model.assembly.Model.prescribed_load`);
 :math:`\mathbf f_{nl} = -\varepsilon` is the geometric nonlinearity (2.8)
 (:mod:`fivebar.model.nonlinear`).
 
@@ -256,6 +258,9 @@ class LinkageDynamics:
         M, K = (np.ascontiguousarray(X[..., k[:, None], k[None, :]]) for X in (M, K))
         ur = self.model.rigid_acceleration(state)[..., k]
         F = np.ascontiguousarray(-np.einsum("...ij,...j->...i", M, ur))
+        extra = self.model.prescribed_load(state)[..., k]  # eliminated DOFs that move: a rigid crank's pin, a driven slider
+        if np.any(extra):
+            F = np.ascontiguousarray(F + extra)
         if self._P is not None:
             F = F + np.array([np.asarray(self._P(ti), float) for ti in np.atleast_1d(t)]).reshape(F.shape)
         if params.damping_model == "stiffness":
@@ -282,12 +287,8 @@ class LinkageDynamics:
         bend = np.array([1, 2, 3, 5, 6, 7])
         for el, beta in zip(m.elements, m.element_angles(state.angle)):
             beta = np.broadcast_to(beta, shape)
-            c, s = np.cos(beta), np.sin(beta)
-            R = m._rotations(beta)
-            dR = np.zeros(R.shape)
-            for j in (0, 4):  # d/dbeta of [[c, s], [-s, c]]
-                dR[..., j, j], dR[..., j, j + 1] = -s, c
-                dR[..., j + 1, j], dR[..., j + 1, j + 1] = -c, -s
+            R = m._rotations(beta, el.frames)
+            dR = m._rotations(beta, el.frames, derivative=True)  # d/dbeta of [[c, s], [-s, c]]
             dR *= np.broadcast_to(state.omega[el.link], shape)[..., None, None]
             Ke = np.zeros((8, 8))
             Ke[np.ix_(bend, bend)] = m.Ke[el.link][np.ix_(bend, bend)]

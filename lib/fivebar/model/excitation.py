@@ -260,7 +260,9 @@ def excitation_frequencies(
     Returns
     -------
     pandas.DataFrame
-        Indexed by symbol ("nu1".."nu8"), columns ``frequency (rad/s)``, ``frequency (Hz)``,
+        Indexed by symbol ("nu1".."nu8" for the paper's two motor-driven cranks; for any other
+        linkage one per driven input, their common divisor when there are two, then the
+        eccentricity and field of each motor), columns ``frequency (rad/s)``, ``frequency (Hz)``,
         ``source`` (the term of (2.7)), ``drives linkage`` (bool: acts on the linkage
         subsystem of :class:`fivebar.model.dynamics.LinkageDynamics`) and ``note``.  A common
         divisor that does not exist (incommensurate frequencies) is NaN.
@@ -271,11 +273,8 @@ def excitation_frequencies(
         params = params.replace(crank_speed_rpm=crank_speed_rpm)
     lk = params.linkage
     motors = params.crank_motors
-    if len(lk.cranks) != 2 or len(motors) != 2:
-        raise ExcitationError(
-            f"the excitation frequencies nu1..nu8 of (2.10) are those of two motor-driven cranks (the paper's "
-            f"five-bar); the linkage {lk.name!r} has {len(lk.cranks)} driven crank(s), {len(motors)} of them with "
-            "a motor")
+    if len(lk.inputs) != 2 or len(motors) != 2:
+        return _input_frequencies(params, supply)
     speeds = [lk.joint(joint).drive.ratio * params.crank_speed_rad_s for joint in motors]  # type: ignore[union-attr]
     W1, W2 = speeds
     fields = []
@@ -311,6 +310,43 @@ def excitation_frequencies(
     return df.set_index("symbol")
 
 
+def _input_frequencies(params: Params, supply: str) -> pd.DataFrame:
+    """The table of :func:`excitation_frequencies` for a linkage that is not the paper's pair of
+    motor-driven cranks: one row per driven input (its drive's fundamental, ``ratio`` times the
+    crank speed for a crank turning through whole turns, the crank speed for an oscillating
+    input), their greatest common divisor for two inputs, and for each crank that names a motor
+    the rotating eccentricity of its rotor and the turning frequency of its field."""
+    lk = params.linkage
+    W = params.crank_speed_rad_s
+    rows = []
+    speeds = []
+    for k, j in enumerate(lk.inputs, start=1):
+        d = j.drive
+        f = d.ratio * W if d.ratio else W  # type: ignore[union-attr]
+        speeds.append(f)
+        what = f"crank {j.name}" if j.kind == "crank" else f"slider {j.name}"
+        rows.append((f"nu{k}", f, f"-M u_r'' ({what})", True,
+                     f"fundamental of the drive of {what}: the rigid-body inertia repeats with it"))
+    if len(speeds) == 2:
+        rows.append(("nu3", _gcd(speeds), "-M u_r'' (both inputs)", True,
+                     "greatest common divisor of nu1, nu2: the fundamental of the common period (errata E27)"))
+    k = len(rows)
+    for joint, section in lk.motors:
+        motor = params.motors[section]
+        Wj = lk.joint(joint).drive.ratio * W  # type: ignore[union-attr]
+        p = params if supply == "mains" else params.replace(supply_frequency=supply_frequency_for_speed(motor, Wj))
+        ff = field_frequencies(motor, p)
+        rows.append((f"nu{k + 1}", Wj if supply == "crank" else float(ff["rotor"]),
+                     f"-(K1e + K2e) e, the rotor eccentricity of {section}", False,
+                     f"the rotating eccentricity of the rotor that drives crank {joint} (rotor DOFs only)"))
+        rows.append((f"nu{k + 2}", float(ff["field"]), f"K0, K12 of {section} (field)", False,
+                     f"turning frequency of the stator field of {section}"))
+        k += 2
+    df = pd.DataFrame(rows, columns=["symbol", "frequency (rad/s)", "source", "drives linkage", "note"])
+    df.insert(2, "frequency (Hz)", df["frequency (rad/s)"] / (2 * np.pi))
+    return df.set_index("symbol")
+
+
 # --- modal basis (3.1) ----------------------------------------------------------------------------
 @dataclass(frozen=True)
 class ModalBasis:
@@ -331,6 +367,10 @@ class ModalBasis:
         reference modes repeated (reference).
     mass : ndarray (S, n, n)
         :math:`\mathbf M(t_j)` (for the kinematic terms).
+    returns : ndarray (k,) or None
+        How each mode comes back after one period: +1, or -1 for an anti-periodic shape
+        (:math:`\boldsymbol\phi_r(t + T) = -\boldsymbol\phi_r(t)`: the cycle encircles a
+        frequency coincidence), kept only where :func:`modal_basis` is asked to; None: all +1.
     """
 
     kind: str
@@ -339,6 +379,16 @@ class ModalBasis:
     omega: NDArray
     shapes: NDArray
     mass: NDArray
+    returns: NDArray | None = None
+
+    def _neighbours(self) -> tuple[NDArray, NDArray]:
+        """The shapes one step later and one step earlier, across the period's end with the
+        modes' return signs."""
+        nxt, prv = np.roll(self.shapes, -1, axis=0), np.roll(self.shapes, 1, axis=0)
+        if self.returns is not None and np.any(self.returns < 0):
+            nxt[-1] = nxt[-1] * self.returns
+            prv[0] = prv[0] * self.returns
+        return nxt, prv
 
     @property
     def n_modes(self) -> int:
@@ -354,13 +404,15 @@ class ModalBasis:
     def shapes_dot(self) -> NDArray:
         r""":math:`\dot{\boldsymbol\Phi}(t_j)` by periodic central differences (1/s)."""
         dt = self.period / self.t.size
-        return (np.roll(self.shapes, -1, axis=0) - np.roll(self.shapes, 1, axis=0)) / (2 * dt)
+        nxt, prv = self._neighbours()
+        return (nxt - prv) / (2 * dt)
 
     @property
     def shapes_ddot(self) -> NDArray:
         r""":math:`\ddot{\boldsymbol\Phi}(t_j)` by periodic second differences (1/s^2)."""
         dt = self.period / self.t.size
-        return (np.roll(self.shapes, -1, axis=0) - 2 * self.shapes + np.roll(self.shapes, 1, axis=0)) / dt**2
+        nxt, prv = self._neighbours()
+        return (nxt - 2 * self.shapes + prv) / dt**2
 
     @property
     def gyroscopic(self) -> NDArray:
@@ -401,7 +453,8 @@ def _track(Phi: NDArray, M: NDArray) -> NDArray:
 
 
 def modal_basis(
-    dyn: LinkageDynamics, n_modes: int = 2, kind: str = "instantaneous", reference_step: int = 0
+    dyn: LinkageDynamics, n_modes: int = 2, kind: str = "instantaneous", reference_step: int = 0,
+    antiperiodic: bool = False,
 ) -> ModalBasis:
     r"""The modes of the linkage subsystem at the S steps of ``dyn`` (3.1).
 
@@ -414,12 +467,18 @@ def modal_basis(
         See the module docstring.
     reference_step : int
         Step whose configuration gives the reference modes (``kind="reference"``).
+    antiperiodic : bool
+        Keep an instantaneous mode that comes back with the opposite sign after one period (its
+        sign in :attr:`ModalBasis.returns`): its frequency and kinematic stiffness are sound, but
+        its modal force is anti-periodic (half harmonics), which :func:`modal_expansion` does not
+        represent.
 
     Raises
     ------
     ExcitationError
-        Bad arguments, or instantaneous modes that do not return to themselves after one
-        period (a mode tracked around the cycle coming back with the opposite sign).
+        Bad arguments, or (unless ``antiperiodic``) instantaneous modes that do not return to
+        themselves after one period (a mode tracked around the cycle coming back with the
+        opposite sign).
     """
     if kind not in _BASES:
         raise ExcitationError(f"kind = {kind!r} is not allowed: use one of {list(_BASES)}")
@@ -434,10 +493,13 @@ def modal_basis(
     Phi = np.empty((S, dyn.n, k))
     w2, Phi[:] = frozen_modes(sd.M, sd.K, k)
     omega[:] = np.sqrt(w2)
+    returns = None
     if kind == "instantaneous":
         Phi = _track(Phi, sd.M)
         back = np.einsum("ik,ij,jk->k", Phi[-1], sd.M[0], Phi[0])
-        if np.any(back <= 0):
+        if antiperiodic:
+            returns = np.where(back <= 0, -1.0, 1.0)
+        elif np.any(back <= 0):
             r = int(np.flatnonzero(back <= 0)[0]) + 1
             raise ExcitationError(
                 f"mode {r} tracked over one period returns with the opposite sign (its shape is "
@@ -445,7 +507,7 @@ def modal_basis(
             )
     else:
         Phi = np.broadcast_to(Phi[reference_step], Phi.shape).copy()
-    return ModalBasis(kind, dyn.t.copy(), dyn.period, omega, Phi, sd.M)
+    return ModalBasis(kind, dyn.t.copy(), dyn.period, omega, Phi, sd.M, returns)
 
 
 def modal_expansion(dyn: LinkageDynamics, basis: ModalBasis, m: int | None = None) -> FourierSeries:

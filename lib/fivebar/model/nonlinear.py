@@ -248,7 +248,9 @@ class NonlinearForce:
     def __init__(self, model: Model, keep: ArrayLike | None = None, strain_measure: str | None = None) -> None:
         self.model = model
         p = model.params
-        self.EA = p.E * p.A
+        #: EA (N) of every element's link (its own section and material)
+        self.EA = np.array([model.linkage.link(el.link).material.E * model.linkage.link(el.link).section.area
+                            for el in model.elements])
         #: the form of the membrane strain (:data:`STRAIN_MEASURES`)
         self.strain_measure = p.strain_measure if strain_measure is None else strain_measure
         #: its index, as the compiled kernel takes it
@@ -267,7 +269,7 @@ class NonlinearForce:
         self._idx = pos[np.where(dofs < 0, model.n, dofs)]  # (n_el, 8) into a padded vector
         self._L = np.array([el.length for el in model.elements])
         wg = [_slopes(el.length) for el in model.elements]
-        self._wE = self.EA * np.concatenate([w for w, _ in wg])  # EA x Gauss weights (N m)
+        self._wE = np.concatenate([EA * w for EA, (w, _) in zip(self.EA, wg)])  # EA x Gauss weights (N m)
         self._g = np.array([g for _, g in wg])  # (n_el, npts, 8), local slopes
         self._npts = self._g.shape[1]
 
@@ -280,7 +282,7 @@ class NonlinearForce:
         """
         m = self.model
         betas = np.stack(np.broadcast_arrays(*m.element_angles(link_angles(m.params, *theta))), axis=-1)
-        R = m._rotations(betas)  # (..., n_el, 8, 8) local <- global
+        R = m._rotations(betas, m.element_frames)  # (..., n_el, 8, 8) local <- global (a slider: its guide's frame)
         Ge = self._g @ R  # (..., n_el, npts, 8)
         ae = (R[..., 4, :] - R[..., 0, :]) / self._L[:, None]  # (..., n_el, 8)
         return Ge, ae

@@ -1,8 +1,9 @@
 r"""Rigid-body dynamics of the linkage of the description (Lagrange's equations).
 
-The rigid linkage has as many degrees of freedom as the description drives cranks, the crank
-angles in the order of the chain (``Linkage.cranks``): :math:`\mathbf q = (\theta_1, \theta_4)`
-for the five-bar of Figure 1, one angle for a four-bar.  Every body's velocity is linear in
+The rigid linkage has as many degrees of freedom as the description has driven inputs, their
+coordinates in the description's order (``Linkage.inputs``): :math:`\mathbf q = (\theta_1,
+\theta_4)` for the five-bar of Figure 1, one angle for a four-bar or a slider-crank, a slider's
+position (m) for a driven slider (its "torque" is then the force along the guide, N).  Every body's velocity is linear in
 :math:`\dot{\mathbf q}`: the centre of mass :math:`G_b` of body :math:`b` moves with
 :math:`\mathbf v_b = \mathbf J_b(\mathbf q)\,\dot{\mathbf q}` and the body turns with
 :math:`\omega_b = \mathbf j_b(\mathbf q)\,\dot{\mathbf q}`.  The kinetic energy
@@ -34,7 +35,7 @@ with the Jacobians as slope).  The Jacobians and :math:`\mathbf a_{b,0}` come fr
 Bodies (uniform flat bars of mass :math:`\rho A L` with centroidal inertia :math:`mL^2/12`
 about the normal to the plane): the moving links of the description (for the five-bar the
 cranks L1, L4 and the couplers L2, L3); the lumped masses at its pins (:math:`m_{01}` at B and
-:math:`m_{02}` at C, section 5); the rotor :math:`J_0` of the motor section each crank names
+:math:`m_{02}` at C, section 5) and the slider blocks (point masses that do not turn); the rotor :math:`J_0` of the motor section each crank names
 (section 5), rigidly coupled to its crank, optionally with the polar inertia of the motor
 shaft (a crank without a motor has none).  Gravity (``params.gravity``, an assumption, zero by
 default) acts along :math:`-y`.
@@ -174,8 +175,8 @@ def _check_keys(model: InertiaModel, params: Params) -> None:
     """The inertia model's links, pins and cranks must be the description's."""
     lk = params.linkage
     for name, table, allowed in (("link_mass", model.link_mass, lk.link_names),
-                                 ("masses", model.masses, [j.name for j in lk.joints if j.kind == "pin"]),
-                                 ("rotors", model.rotors, [j.name for j in lk.cranks])):
+                                 ("masses", model.masses, list(lk.masses)),
+                                 ("rotors", model.rotors, [j.name for j in lk.inputs if j.kind == "crank"])):
         bad = sorted(set(table) - set(allowed))
         if bad:
             raise InputError(f"InertiaModel.{name} names {bad}, which the linkage {lk.name!r} does not have: "

@@ -179,7 +179,7 @@ class BranchPoint:
         Scaled periodicity residual ``||G / scale||``.
     recovery : str
         How the step that reached it was made when the ordinary step failed down to
-        ``ds_min`` (one of :data:`_RECOVERIES`; "" for an ordinary step).
+        ``ds_min`` (one of "full Newton", "secant predictor", "natural parameter", tried in that order; "" for an ordinary step).
     """
 
     x: Array
@@ -707,7 +707,7 @@ def _recover(prob: _Problem, pts: list, yk: Array, tk: Array, ds_min: float, Jc:
     """A step from the last point ``yk`` after the ordinary step failed down to ``ds_min``:
     ``(step, name, h, target)`` (:func:`_step`'s result, the recovery's name, the step made and
     the parameter it was corrected onto, ``end[0]`` when the step passed the end, the scaled
-    ``p_end``, in the direction ``end[1]``; else None) or ``(None, "", 0, None)``.  Tried in order (:data:`_RECOVERIES`), each at 4 and then 1 times
+    ``p_end``, in the direction ``end[1]``; else None) or ``(None, "", 0, None)``.  Tried in order (``_RECOVERIES``), each at 4 and then 1 times
     ``ds_min``: *full Newton*, the corrector with a fresh Jacobian at every iteration, damped,
     and three times the iterations; *secant predictor*, the predictor and the constraint along
     the secant through the last two points instead of the tangent (the tangent at a point

@@ -47,8 +47,8 @@ def pd_servo(
         raise InputError(f"measure = {measure!r} is not allowed: use one of {list(_MEASURES)}")
     from ...model.rigid import mass_matrix
 
-    th1, th4 = _cycle_angles(params, np.arange(samples) * 2 * np.pi / samples)
-    J = mass_matrix(params, th1, th4, inertia=rigid_inertia(params)).diagonal(axis1=-2, axis2=-1).mean(axis=0)
+    th = _cycle_angles(params, np.arange(samples) * 2 * np.pi / samples)
+    J = mass_matrix(params, *th, inertia=rigid_inertia(params)).diagonal(axis1=-2, axis2=-1).mean(axis=0)
     w = 2.0 * np.pi * bw
     return Servo(tuple(J * w**2), tuple(2.0 * z * J * w), measure)
 
@@ -75,18 +75,19 @@ def damping_lqr(
     Returns
     -------
     ndarray
-        The gain K_x, shape (2, nx).
+        The gain K_x, shape (inputs, nx) (two inputs for the five-bar).
     """
     damped_modes = _count("damped_modes", damped_modes, 1, mm.n_modes)
     q = _positive("q", q)
     r = _positive("r", r)
-    k = 2 + mm.n_modes
+    n_in = mm.linkage.inputs
+    k = n_in + mm.n_modes
     Q = np.zeros((2 * k, 2 * k))
     for j in range(damped_modes):
-        Q[2 + j, 2 + j] = q * mm.omega[j] ** 2
-        Q[k + 2 + j, k + 2 + j] = q
+        Q[n_in + j, n_in + j] = q * mm.omega[j] ** 2
+        Q[k + n_in + j, k + n_in + j] = q
     A = mm.A - mm.B @ mm.feedback_matrix(servo)
-    K, _, _ = control.lqr(A, mm.B, Q, r * np.eye(2))
+    K, _, _ = control.lqr(A, mm.B, Q, r * np.eye(n_in))
     return np.array(K)
 
 
@@ -141,18 +142,18 @@ def damping_schedule(
 ) -> Callable[[ArrayLike], NDArray]:
     """:func:`damping_lqr` designed at each crank angle, as scheduled physical gains.
 
-    ``G = damping_schedule(params, servo, angles)``; ``G(phi)`` is an array (2, 2, n):
-    ``G[0]`` the position gain G_p and ``G[1]`` the velocity gain G_v of
+    ``G = damping_schedule(params, servo, angles)``; ``G(phi)`` is an array (2, r, n), r the
+    driven cranks: ``G[0]`` the position gain G_p and ``G[1]`` the velocity gain G_v of
     tau = -G_p p - G_v p' (coordinates of :class:`FlexibleLinkage`, in which the gains do not
     depend on the sign or order of the mode shapes, so they can be interpolated).
     ``crank_angles`` (rad) are angles of crank AB from its initial angle.
     """
     a = np.atleast_1d(_finite("crank_angles", crank_angles))
-    th1, th4 = _cycle_angles(params, a)
+    th = _cycle_angles(params, a)
     fl = FlexibleLinkage(params)
     out = []
-    for x1, x4 in zip(th1, th4):
-        mm = control_modal_model(params, x1, x4, n_modes, linkage=fl)
+    for x in zip(*th):
+        mm = control_modal_model(params, *(tuple(x) + (None,) * (2 - len(x))), n_modes=n_modes, linkage=fl)
         out.append(np.stack(mm.physical_gains(damping_lqr(mm, servo, damped_modes, q, r))))
     return schedule(np.array(out), a)
 

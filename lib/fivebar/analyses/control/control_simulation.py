@@ -62,13 +62,15 @@ class CycleSimulation:
     p, v : ndarray
         Deviations from the nominal rigid configuration and their rates (SI), shape (N, n).
     w : ndarray
-        Transverse midpoint deflections of L2, L3 relative to the rigid motion at the rotor
-        angles (m), shape (N, 2).
+        Transverse midpoint deflections of the couplers (L2, L3 of the five-bar) relative to the
+        rigid motion at the rotor angles (m), shape (N, couplers).
     error : ndarray
-        Rotor-angle deviations from the crank laws (rad), shape (N, 2).
+        Rotor-angle deviations from the crank laws (rad), shape (N, driven cranks).
     torque : ndarray
-        Motor torques, feedforward plus feedback (N m), shape (N, 2).
+        Motor torques, feedforward plus feedback (N m), shape (N, driven cranks).
     steps_per_period, periods : int
+    links : tuple of str
+        The couplers, in the order of the columns of ``w``.
     """
 
     t: NDArray
@@ -79,18 +81,20 @@ class CycleSimulation:
     torque: NDArray
     steps_per_period: int
     periods: int
+    links: tuple[str, ...] = ()
 
     def last_period(self) -> slice:
         """Slice of the samples of the last period (S + 1 samples)."""
         return slice(len(self.t) - self.steps_per_period - 1, len(self.t))
 
     def _col(self, link: str) -> int:
-        if link not in ("L2", "L3"):
-            raise InputError(f"link = {link!r} is not allowed: use 'L2' or 'L3'")
-        return 0 if link == "L2" else 1
+        if link not in self.links:
+            raise InputError(f"link = {link!r} is not allowed: use one of {list(self.links)}")
+        return self.links.index(link)
 
     def peak_to_peak(self, link: str) -> float:
-        """Peak-to-peak midpoint deflection (m) of "L2" or "L3" over the last period."""
+        """Peak-to-peak midpoint deflection (m) of a coupler ("L2" or "L3" of the five-bar) over
+        the last period."""
         y = self.w[self.last_period(), self._col(link)]
         return float(y.max() - y.min())
 
@@ -131,16 +135,19 @@ def _reference(ref, fl: FlexibleLinkage, params: Params, S: int) -> tuple[NDArra
             f"{params.period:.6g} s (the same crank speed and steps_per_period)"
         )
     labels = [dyn.model.dofs[i].label for i in dyn.keep]
-    rename = {"U4": "L1@A.slope", "U8": "L4@E.slope"}  # the tied crank roots
+    lk = params.linkage
+    # the tied crank roots: the coupling-end torsion U4 (U8) of each motor is its crank's root slope
+    rename = {f"U{4 * k}": f"{lk.crank_link(joint).name}@{joint}.slope" for k, (joint, _) in enumerate(lk.motors, start=1)}
     where = {rename.get(lab, lab): k for k, lab in enumerate(labels)}
-    missing = [lab for lab in fl.labels[2:] if lab not in where]
-    if missing or not dyn.model.motors:
+    N = fl.inputs
+    missing = [lab for lab in fl.labels[N:] if lab not in where]
+    if missing or (lk.motors and not dyn.model.motors):
         raise InputError(f"reference model lacks the coordinates {missing}: use motors=True and the same mesh")
     P = np.zeros((S, fl.n))
     V = np.zeros((S, fl.n))
-    cols = [where[lab] for lab in fl.labels[2:]]
-    P[:, 2:] = ref.u[:S, cols]
-    V[:, 2:] = ref.v[:S, cols]
+    cols = [where[lab] for lab in fl.labels[N:]]
+    P[:, N:] = ref.u[:S, cols]
+    V[:, N:] = ref.v[:S, cols]
     return P, V
 
 
@@ -173,22 +180,24 @@ def _closed_loop(setup, servo, damping, reference) -> _ClosedLoop:
     dt = T / S
     t = np.arange(S) * dt
     laws = crank_laws(params, t)
-    M, K = fl.matrices(laws[0], laws[3])
-    Phi = fl.rigid_modes(laws[0], laws[3])
+    M, K = fl.matrices(*laws[0::3])
+    Phi = fl.rigid_modes(*laws[0::3])
     C = np.empty_like(M)
     for k in range(S):
         om, Pe = fl.modes(M[k], K[k], Phi[k])
         C[k] = fl.damping(M[k], om, Pe)
     tau_ff = feedforward(params, t)
-    F = -np.einsum("kij,kj->ki", M, fl.rigid_acceleration(*laws)) + tau_ff @ fl.B.T
+    F = -np.einsum("kij,kj->ki", M, fl.rigid_acceleration(*laws)) if not fl._pins else fl.inertial_load(*laws)
+    F = F + tau_ff @ fl.B.T
     Gs = servo.gains(fl)
-    Gp = np.broadcast_to(Gs[0], (S, 2, fl.n)).copy()
-    Gv = np.broadcast_to(Gs[1], (S, 2, fl.n)).copy()
-    u_ref = np.zeros((S, 2))
+    r = fl.inputs
+    Gp = np.broadcast_to(Gs[0], (S, r, fl.n)).copy()
+    Gv = np.broadcast_to(Gs[1], (S, r, fl.n)).copy()
+    u_ref = np.zeros((S, r))
     if damping is not None:
-        G = np.asarray(damping(laws[0] - params.theta1_0), float)
-        if G.shape != (S, 2, 2, fl.n):
-            raise InputError(f"damping(phi) returned shape {G.shape[1:]}: it must be (2, 2, {fl.n})")
+        G = np.asarray(damping(laws[0] - params.linkage.inputs[0].drive.theta0), float)  # (the first crank's turn)
+        if G.shape != (S, 2, r, fl.n):
+            raise InputError(f"damping(phi) returned shape {G.shape[1:]}: it must be (2, {r}, {fl.n})")
         Gp += G[:, 0]
         Gv += G[:, 1]
         if reference is not None:
@@ -213,7 +222,7 @@ def simulate_cycle(
 ) -> CycleSimulation:
     """Closed-loop kineto-elastodynamics with free rotors along the nominal motion.
 
-    ``sim = simulate_cycle(setup, servo)``; ``sim.peak_to_peak("L2")``.
+    ``sim = simulate_cycle(setup, servo)``; ``sim.peak_to_peak("L2")`` (a coupler of the linkage).
 
     Integrates, with the set-up's scheme (the parameter file's generalised-alpha by default,
     errata E26; :func:`fivebar.numerics.newmark.integrate`) on the full-order model of :class:`FlexibleLinkage` (no modal truncation),
@@ -235,7 +244,7 @@ def simulate_cycle(
     servo
         The PD servo (it acts on the deviation of the measured angle from the crank laws).
     damping
-        ``phi -> (2, 2, n)`` scheduled gains (crank angle in rad), or ``None``.
+        ``phi -> (2, r, n)`` scheduled gains (crank angle in rad; r the driven cranks), or ``None``.
     reference
         The expected elastic motion for the damping loop: a prescribed-motion
         :class:`fivebar.analyses.steady.SteadyState` with the same speed and ``steps_per_period``
@@ -260,10 +269,11 @@ def simulate_cycle(
         u0, v0 = qs[1], (qs[2] - qs[0]) / (2 * dt)
     res = integrate(System(M[0], Cc[0], Kc[0]), u0, v0, 0.0, dt, periods * S, cl.scheme, step_data=sd)
     k = np.arange(len(res.t)) % S
-    W = fl.elastic_midpoint_rows(cl.laws[0], cl.laws[3], cl.rigid_modes)  # (S, 2, n)
+    W = fl.elastic_midpoint_rows(*cl.laws[0::3], Phi_r=cl.rigid_modes)  # (S, couplers, n)
     w = np.einsum("kij,kj->ki", W[k], res.u)
     fb = -np.einsum("kij,kj->ki", Gp[k], res.u) - np.einsum("kij,kj->ki", Gv[k], res.v) + u_ref[k]
-    return CycleSimulation(res.t, res.u, res.v, w, res.u[:, list(fl.rotor)], cl.tau_ff[k] + fb, S, periods)
+    return CycleSimulation(res.t, res.u, res.v, w, res.u[:, list(fl.rotor)], cl.tau_ff[k] + fb, S, periods,
+                           tuple(fl.params.linkage.couplers))
 
 
 @analysis
