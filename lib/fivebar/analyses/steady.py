@@ -382,6 +382,12 @@ def shooting(
     the residual (or whose period fails to integrate) is halved, up to 10 times.  The returned
     state carries the Floquet multipliers of the orbit.
 
+    Where Newton's method fails from the start (with a dissipative scheme, as the default), the
+    linkage is marched from that start until the change over a period is below 1e-3 (at most
+    200 periods) and Newton's method starts again from there: a damped, stable linkage settles
+    near its orbit, which Newton's step from the quasi-static state can miss when the
+    deflections are large.  ``periods`` then counts the march too.
+
     The Jacobian :math:`\boldsymbol\Phi - \mathbf I` is factorised once and reused while it
     serves (the chord method): for the linear model :math:`\boldsymbol\Phi` does not depend on
     the state, so one period with the monodromy matrix and one without reach the orbit; with
@@ -392,8 +398,68 @@ def shooting(
     return _shooting(setup, u0, v0, tol, max_iter)
 
 
+#: where Newton's method on periodicity fails from its start, :func:`shooting` marches from that
+#: start until the change over a period falls below this (relative, energy norm), at most
+#: :data:`_SETTLE_PERIODS` periods, and shoots again from where the march got to
+_SETTLE_TOL, _SETTLE_PERIODS = 1e-3, 200
+
+
 def _shooting(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) -> SteadyState:
-    """:func:`shooting`, optionally started with ``monodromy`` (up to 32 DOFs): a monodromy
+    """:func:`shooting` (see :func:`_newton_orbit`); where Newton's method fails from the start
+    (no step along its direction reduces the residual, or it does not converge), and the scheme
+    is dissipative, the march from that start settles first (:func:`_settle`) and Newton's method
+    starts again from there: the orbit a damped, stable linkage settles on, which the Newton step
+    from the quasi-static state can miss when the deflections are large (the steel five-bar of
+    ``examples/params/steel_heavy_ratio2.toml``, 2 mm side in the plane, at 60 r/min: six periods
+    of march, then five of shooting).  The result is a function of the arguments alone."""
+    try:
+        return _newton_orbit(setup, u0, v0, tol, max_iter, monodromy)
+    except (SteadyStateError, NewtonConvergenceError) as first:
+        dyn, scheme, s = _problem(setup)
+        if scheme.rho_infinity >= 1.0:
+            raise
+        if u0 is None or v0 is None:
+            us, vs = _initial_state(dyn)
+            u0 = us if u0 is None else u0
+            v0 = vs if v0 is None else v0
+        try:
+            u, v, k, change = _settle(dyn, scheme, np.asarray(u0, float), np.asarray(v0, float), _SETTLE_TOL,
+                                      _SETTLE_PERIODS)
+        except (SteadyStateError, NewtonConvergenceError) as exc:
+            raise first from exc
+        try:
+            out = _newton_orbit(s, u, v, tol, max_iter)
+        except (SteadyStateError, NewtonConvergenceError) as second:
+            raise SteadyStateError(
+                f"{first}; then a march of {k} periods from the same start (last relative change over a period "
+                f"{change:.2e}) and shooting from there failed too: {second}") from second
+        out.periods += k
+        return out
+
+
+def _settle(dyn: LinkageDynamics, scheme: Scheme, u: NDArray, v: NDArray, tol: float,
+            max_periods: int) -> tuple[NDArray, NDArray, int, float]:
+    """March from (u, v) until the relative change over a period (energy norm) is below ``tol``,
+    for at most ``max_periods``, or until the change has not fallen to a new least value for 20
+    periods (the motion does not settle): the state reached, the periods and the last change.
+    Raises :class:`SteadyStateError` where the motion is no longer finite."""
+    change, least, at = np.inf, np.inf, 0
+    for k in range(1, max_periods + 1):
+        res = _period(dyn, u, v, scheme)
+        if not (np.all(np.isfinite(res.u[-1])) and np.all(np.isfinite(res.v[-1]))):
+            raise SteadyStateError(f"the march diverged in period {k}")
+        scale = _energy_norm(dyn, res.u, res.v).max()
+        change = float(_energy_norm(dyn, res.u[-1] - u, res.v[-1] - v)) / max(scale, 1e-300)
+        u, v = res.u[-1], res.v[-1]
+        if change < least:
+            least, at = change, k
+        if change <= tol or k - at >= 20:
+            break
+    return u, v, k, change
+
+
+def _newton_orbit(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) -> SteadyState:
+    """Newton's method of :func:`shooting`, optionally started with ``monodromy`` (up to 32 DOFs): a monodromy
     matrix (2 n, 2 n) of a nearby problem (the same model at a neighbouring speed) as the chord
     iteration's first Jacobian; the orbit's own replaces it when a step with it falls short, as
     with a stale one.  The orbit's own monodromy matrix, when one was taken, is kept with the
