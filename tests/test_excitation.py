@@ -288,3 +288,19 @@ def test_bad_basis_input(dyn):
         modal_basis(dyn, 2, "average")
     with pytest.raises(ExcitationError):
         modal_basis(dyn, 2, "reference", reference_step=100)
+
+
+def test_the_frequencies_of_cranks_without_motors(params, tmp_path):
+    """Cranks clamped to rigid drive shafts (a [linkage] without motors): the linkage is driven by the
+    rigid-body inertia alone, at the cranks' frequencies Omega and r Omega and their common
+    fundamental; the motors' nu4..nu8 do not exist (before: ExcitationError, 'two motor-driven cranks')."""
+    import copy
+
+    table = copy.deepcopy(dict(params.values["linkage"]))
+    for j in table["joints"].values():
+        j.pop("motor", None)
+    p = params.replace(linkage=table, speed_ratio=2.0)
+    df = excitation_frequencies(p, 60.0)
+    assert list(df.index) == ["nu1", "nu2", "nu3"] and df["drives linkage"].all()
+    assert df["frequency (Hz)"].to_numpy() == pytest.approx([1.0, 2.0, 1.0], rel=1e-12)
+    assert excitation_frequencies(p, 60.0, supply="mains")["frequency (Hz)"].to_numpy() == pytest.approx([1.0, 2.0, 1.0])

@@ -269,7 +269,8 @@ def excitation_frequencies(
     Returns
     -------
     pandas.DataFrame
-        Indexed by symbol ("nu1".."nu8"), columns ``frequency (rad/s)``, ``frequency (Hz)``,
+        Indexed by symbol ("nu1".."nu8"; "nu1".."nu3" for cranks without motors, whose
+        electromagnetic terms do not exist), columns ``frequency (rad/s)``, ``frequency (Hz)``,
         ``source`` (the term of (2.7)), ``drives linkage`` (bool: acts on the linkage
         subsystem of :class:`fivebar.model.dynamics.LinkageDynamics`) and ``note``.  A common
         divisor that does not exist (incommensurate frequencies) is NaN.
@@ -280,13 +281,24 @@ def excitation_frequencies(
         params = params.replace(crank_speed_rpm=crank_speed_rpm)
     lk = params.linkage
     motors = params.crank_motors
-    if len(lk.cranks) != 2 or len(motors) != 2:
+    if len(lk.cranks) != 2 or len(motors) not in (0, 2):
         raise ExcitationError(
-            f"the excitation frequencies nu1..nu8 of (2.10) are those of two motor-driven cranks (the paper's "
-            f"five-bar); the linkage {lk.name!r} has {len(lk.cranks)} driven crank(s), {len(motors)} of them with "
-            "a motor")
-    speeds = [lk.joint(joint).drive.ratio * params.crank_speed_rad_s for joint in motors]  # type: ignore[union-attr]
-    W1, W2 = speeds
+            f"the excitation frequencies nu1..nu8 of (2.10) are those of two driven cranks, both with a motor or neither "
+            f"(the paper's five-bar); the linkage {lk.name!r} has {len(lk.cranks)} driven crank(s), {len(motors)} of "
+            "them with a motor")
+    W1, W2 = (j.drive.ratio * params.crank_speed_rad_s for j in lk.cranks)  # type: ignore[union-attr]
+    if not motors:  # cranks clamped to rigid drive shafts: only the rigid-body inertia, at the crank frequencies
+        rows = [
+            ("nu1", W1, "-M u_r'' (crank 1)", True, "the speed of the first crank (no motor: its drive shaft is rigid)"),
+            ("nu2", W2, "-M u_r'' (crank 2)", True, "the speed of the second crank (no motor)"),
+            ("nu3", _gcd([W1, W2]), "-M u_r'' (both cranks)", True,
+             "printed 'smallest common multiple' of nu1, nu2: read as their greatest common divisor, "
+             "the fundamental of the common period (errata E27)"),
+        ]
+        df = pd.DataFrame(rows, columns=["symbol", "frequency (rad/s)", "source", "drives linkage", "note"])
+        df.insert(2, "frequency (Hz)", df["frequency (rad/s)"] / (2 * np.pi))
+        return df.set_index("symbol")
+    speeds = [W1, W2]
     fields = []
     rotors = []
     for motor, W in zip(motors.values(), speeds):
