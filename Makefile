@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 # that nbval sees the same figure outputs as were stored (tests/conftest.py selects Agg).
 export PYDEVD_DISABLE_FILE_VALIDATION := 1
 
-.PHONY: venv test test-unit test-notebooks test-notebooks-other book book-clean book-student pdf pdf-if-tex execute clean \
+.PHONY: venv test check test-unit test-notebooks test-notebooks-other book book-clean book-student pdf pdf-if-tex execute clean \
 	rerun rerun-examples
 
 venv: $(STAMP)
@@ -42,6 +42,12 @@ test: venv
 	$(MAKE) --no-print-directory pdf-if-tex
 	$(MAKE) --no-print-directory book
 	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q --durations=15
+
+## make check: the fast unit tests (not marked slow; no notebooks, no book, no browser), for the
+## edit-test loop: about a minute on 2 cores.  `make test` runs everything.
+check: venv
+	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q -m "not slow" \
+	--ignore=tests/test_browser.py --ignore=tests/test_editions.py --ignore=tests/test_pdf.py
 
 ## make test-unit: only the library's unit tests (no book, no browser)
 test-unit: venv

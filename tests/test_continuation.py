@@ -372,6 +372,7 @@ def test_settle_names_the_period_2_orbit_inside_the_tongue_against_dop853():
     assert min(np.abs(x2 - ref[2]).max(), np.abs(other - ref[2]).max()) < 2e-4
 
 
+@pytest.mark.slow
 def test_settle_between_the_folds_finds_the_stable_orbit_a_dop853_march_reaches():
     # the forced Duffing oscillator between its folds: the middle orbit is a saddle (a multiplier
     # above +1); the march from it, disturbed along the unstable direction, reaches one of the two
@@ -503,6 +504,7 @@ def test_beside_raises_the_first_error_and_waits_for_both():
         _beside(fail("first"), fail("second"), True)
 
 
+@pytest.mark.slow
 def test_a_branch_with_sharp_folds_is_the_same_from_either_end_and_under_perturbations():
     """The answer of a continuation is a property of the problem, not of round-off or of the
     first step: the forced Duffing oscillator whose response curve has a fold pair, with the
@@ -535,6 +537,7 @@ def test_a_branch_with_sharp_folds_is_the_same_from_either_end_and_under_perturb
     assert np.abs(found[0] * (1 + period_error) - refs).max() < 2e-5 * max(refs)
 
 
+@pytest.mark.slow
 def test_a_corrector_that_cannot_converge_in_its_budget_is_recovered_by_newton():
     """With ``max_newton = 1`` the chord corrector never converges (it needs two iterations or
     more), so every step is halved down to ``ds_min``; the recovery (Newton's method with a

@@ -10,6 +10,7 @@ that is not clear.
 from __future__ import annotations
 
 import collections
+import pytest
 import json
 import os
 import select
@@ -71,6 +72,7 @@ def counts(results: list[dict]) -> dict[str, int]:
             ("clear", "unclear", "escaped", "silent", "hang", "crash", "accepted", "refused")}}
 
 
+@pytest.mark.slow
 def test_every_bad_input_gets_a_clear_error_and_numpy_numbers_are_accepted():
     results = run_table()
     wrong = [r for r in results if r["outcome"] not in ("clear", "accepted")]

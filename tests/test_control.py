@@ -301,6 +301,7 @@ def test_closed_loop_multipliers_are_the_decay_of_the_march(bandwidth):
 @pytest.mark.xfail(strict=True, reason="simulate_cycle leaves out the velocity terms of the deviation: on the rigid "
                    "modes p = Phi_r(t) eta its M_p(t) p'' adds 2 Phi_r^T M Phi_r' eta' + Phi_r^T M Phi_r'' eta, of "
                    "order Omega^2 J, which a servo with a bandwidth below the crank frequency does not dominate")
+@pytest.mark.slow
 def test_slow_servo_rigid_stability_matches_the_lagrange_dynamics():
     """A second method for the rigid part: the nonlinear rigid Lagrange dynamics (fivebar.model.rigid)
     under the same feedforward and PD servo, marched by scipy; a perturbation of the crank

@@ -40,6 +40,7 @@ def test_rotor_dofs_are_decoupled_and_left_out():
     assert np.all(M[np.ix_(rotor, d.keep)] == 0) and np.all(K[np.ix_(rotor, d.keep)] == 0)
 
 
+@pytest.mark.slow
 def test_newmark_against_radau_on_the_full_model():
     """From a state on the steady orbit, the average-acceleration rule (S = 1600) and scipy's
     Radau (rtol 1e-7) give the same midpoint motion.  The window is 2 % of a period: the

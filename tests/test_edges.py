@@ -10,6 +10,7 @@ number or 0-d array) is accepted.  None passes silently, hangs or raises another
 from __future__ import annotations
 
 import json
+import pytest
 from pathlib import Path
 
 from test_contract import counts, run_table
@@ -17,6 +18,7 @@ from test_contract import counts, run_table
 WORKER = Path(__file__).with_name("edge_cases.py")
 
 
+@pytest.mark.slow
 def test_every_case_of_the_list_is_answered():
     results = run_table(WORKER)
     wrong = [r for r in results if r["outcome"] not in ("clear", "accepted")]

@@ -73,6 +73,9 @@ WRITER = PRELUDE + textwrap.dedent("""
 """)
 
 
+pytestmark = pytest.mark.slow  # subprocesses and signals: make test runs them, make check does not
+
+
 def _run_and_signal(code: str, args: list[str], sig: int) -> tuple[subprocess.Popen, list[str], float, int, float]:
     proc = subprocess.Popen([sys.executable, "-c", code, LIB, *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, start_new_session=True)

@@ -52,6 +52,9 @@ RUN = textwrap.dedent("""
 """)
 
 
+pytestmark = pytest.mark.slow  # subprocesses and signals: make test runs them, make check does not
+
+
 def _env(tmp_path: Path) -> dict:
     env = dict(os.environ)
     env.pop("NUMBA_CACHE_DIR", None)

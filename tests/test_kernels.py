@@ -204,6 +204,7 @@ def test_compiled_errors_name_the_step(dyn):
         integrate(System(Z, Z, Z), [1.0, 0.0], [0.0, 0.0], 0.0, 0.1, 3, a0=[0.0, 0.0])
 
 
+@pytest.mark.slow
 def test_kernels_load_without_a_writable_cache_location():
     """With no cache locator available (simulated: only locators that decline), the kernels
     still load, caching in a temporary directory, with a warning that says how to keep it."""
@@ -353,6 +354,7 @@ def test_a_users_compiled_force_drives_the_compiled_loop(scheme, newton, monkeyp
     assert np.abs(bad.u - ref.u).max() > 1e-3 * np.abs(ref.u).max()
 
 
+@pytest.mark.slow
 def test_a_fresh_process_loads_the_compiled_loop_from_the_cache(tmp_path):
     """The loop takes the force as a first-class function; its explicit signature keeps the
     cached loop valid in a new process: a second process compiles nothing (numba's own

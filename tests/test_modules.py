@@ -10,6 +10,7 @@ removed from ``sys.modules`` before each) and the modules' syntax trees.
 from __future__ import annotations
 
 import ast
+import pytest
 import io
 import re
 import subprocess
@@ -35,6 +36,7 @@ MODEL = ("description.params", "description.linkage", "description.setup", "mode
 FIVE_BAR = re.compile(r"\b(L[1-5]|motor[12])\b")
 
 
+@pytest.mark.slow
 def test_every_module_imports_alone():
     """Each module imported first, in a process where no other module of the package is loaded
     yet (third-party modules stay cached, so one process serves): an import cycle fails here."""

@@ -10,6 +10,7 @@ state at small S.
 from __future__ import annotations
 
 import subprocess
+import pytest
 import sys
 import sysconfig
 import textwrap
@@ -35,6 +36,7 @@ SCRIPT = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 def test_wheel_installs_and_runs_outside_the_checkout(tmp_path):
     dist = tmp_path / "dist"
     subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",

@@ -201,6 +201,7 @@ def test_a_random_parameter_file_gives_a_sound_model_or_a_fivebar_error(entries,
                                         ("material", "rho"), ("material", "E"), ("assumptions", "damping_ratio")]),
                        st.one_of(magnitude, st.floats(0.2, 0.6)), max_size=3),
        st.floats(5.0, 1500.0))
+@pytest.mark.slow
 def test_a_random_parameter_file_gives_a_periodic_steady_state_or_a_fivebar_error(entries, rpm):
     path = _write(entries)
     try:

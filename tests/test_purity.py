@@ -18,6 +18,7 @@ one (differences of 1e-9 relative in the orbit).
 from __future__ import annotations
 
 import json
+import pytest
 import subprocess
 import sys
 import textwrap
@@ -86,6 +87,7 @@ def _run(order, first):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow
 def test_every_public_analysis_gives_the_same_bits_alone_and_after_others():
     names = ["steady shooting", "steady shooting nonlinear, motors off", "steady march", "steady tol",
              "steady tol flexible", "sweep up", "sweep down", "follow", "resonance", "frequencies", "control",

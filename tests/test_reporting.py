@@ -183,3 +183,19 @@ def test_the_errata_page_has_one_notation():
             hit = _ASCII_MATH.search(prose)
             assert not hit, f"{e['id']} {key}: ASCII maths {hit.group(0)!r} in {e[key]!r}"
     assert _ASCII_MATH.search(_outside_math_and_code("mu0 F_m / (k_mu delta0) is about 11 T"))
+
+
+def test_a_table_cell_that_rounds_to_zero_has_no_sign():
+    """A quantity that is zero but for round-off (a detuning of 0 by construction: -2e-16 on one
+    machine, +2e-16 or 0 on another) rounded by the caller prints as 0, not as -0: the page reads
+    the same on every machine."""
+    import pandas as pd
+
+    from fivebar.book.reporting import table
+
+    text = table(pd.DataFrame({"d (-)": [-0.0, round(-2.2e-16, 6), 0.0, -1e-5]}), digits=4,
+                 caption="c", name="tab-07-zero").data
+    rows = [line for line in text.splitlines() if line.startswith("| ") and "d (-)" not in line]
+    assert rows == ["| 0 |", "| 0 |", "| 0 |", "| -1e-05 |"]
+    text = table(pd.DataFrame({"d (-)": [-0.0004]}), digits={"d (-)": 2}, caption="c", name="tab-07-zero").data
+    assert "| 0.00 |" in text

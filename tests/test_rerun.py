@@ -22,6 +22,9 @@ sys.path.insert(0, str(ROOT / "book" / "_ext"))
 import fivebar_rerun as rerun  # noqa: E402
 
 
+pytestmark = pytest.mark.slow  # subprocesses and signals: make test runs them, make check does not
+
+
 def _code(source: str, tags: list[str] | None = None) -> dict:
     return {"cell_type": "code", "execution_count": None, "id": f"c{abs(hash(source)) % 10**8}",
             "metadata": {"tags": tags or []}, "outputs": [], "source": source}

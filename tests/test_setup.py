@@ -144,6 +144,7 @@ def test_generic_solvers_import_nothing_of_the_linkage():
     assert not hasattr(fivebar.numerics.multiscale, "compare_starts")  # the linkage glue lives in linkage_multiscale
 
 
+@pytest.mark.slow
 def test_analyses_take_a_setup_or_params_alike():
     """A Params is Setup(params): the same result from either, with no keyword."""
     from fivebar.analyses.resonance import resonance_table

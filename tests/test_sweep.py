@@ -36,6 +36,7 @@ def test_process_pool_equals_serial(params, serial):
     _same(par, serial)
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_equals_serial(params, serial):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,

@@ -330,6 +330,8 @@ def table(df: pd.DataFrame, digits: int | dict[str, int] = 4, caption: str | Non
 
 def _myst_table(df: pd.DataFrame, digits: int | dict[str, int], caption: str, name: str) -> Any:
     """The numbered MyST table of :func:`table` (a ``{table}`` directive around a pipe table)."""
+    import re
+
     from IPython.display import Markdown
 
     def cell(col, v) -> str:
@@ -339,8 +341,11 @@ def _myst_table(df: pd.DataFrame, digits: int | dict[str, int], caption: str, na
             return "–"
         if isinstance(v, float):
             if isinstance(digits, dict):
-                return f"{v:.{digits[col]}f}" if col in digits else f"{v:.4g}"
-            return f"{v:.{digits}g}"
+                text = f"{v:.{digits[col]}f}" if col in digits else f"{v:.4g}"
+            else:
+                text = f"{v:.{digits}g}"
+            # a value that rounds to zero prints as 0, whatever the sign its round-off took
+            return text[1:] if re.fullmatch(r"-0(\.0*)?", text) else text
         return str(v).replace("|", "\\|").replace("\n", " ")
 
     head = [str(c).replace("|", "\\|") for c in df.columns]
