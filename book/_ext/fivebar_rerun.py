@@ -5,6 +5,7 @@ Run from the repository root with the project's environment (the Makefile does):
     .venv/bin/python book/_ext/fivebar_rerun.py mine.toml                  # every chapter
     .venv/bin/python book/_ext/fivebar_rerun.py mine.toml --chapters 09 12 # chapters 09 and 12
     .venv/bin/python book/_ext/fivebar_rerun.py a.toml b.toml --name ab    # b.toml over a.toml
+    .venv/bin/python book/_ext/fivebar_rerun.py a.toml b.toml --each       # each alone: the matrix
 
     make rerun PARAMS=mine.toml [CHAPTERS="09 12"] [JOBS=2] [HTML=0]
 
@@ -31,7 +32,14 @@ or the names ``09_figure6``):
    and is reported as a warning, rendered as plain text.
 
 Chapters run in parallel (``--jobs``, default 2: the kernels are separate processes, and the
-numba cache is shared).  The exit status is 0 when every chapter ran without a cell error,
+numba cache is shared).  Each run's wall time and CPU time (the kernel and the worker processes
+it started) are printed.  ``--each`` reruns the chapters with every file alone instead of
+layered, all chapter runs of all files in one pool of ``--jobs`` processes, the chapters that
+took longest in the book's own run first (their stored execution times): the rerun matrix of
+``make rerun-examples``, printed and written to ``_build/rerun/matrix.md`` as a table chapter x
+file: "ok", "ok, n not applicable" (the chapter's note at its top,
+:class:`fivebar.book.chapter.Applicability`, said that n of its studies do not apply, listed
+below the table), or "FAILED", each with its CPU seconds.  The exit status is 0 when every chapter ran without a cell error,
 1 otherwise: each failure is named by chapter and cell (index in the executed notebook,
 execution count, first line of the cell, the error; a failed physics check is a
 ``fivebar.book.chapter.CheckFailed``), and 2 for bad arguments (a file that does not exist, an
