@@ -317,15 +317,6 @@ def _class_rule(classes: tuple[type, ...]):
     return rule
 
 
-def _callable_rule(protocol: type):
-    def rule(label: str, value: Any) -> Any:
-        if not callable(value):
-            raise InputTypeError(f"{label} = {_short(value)} ({type(value).__name__}) is not allowed: give a "
-                                 f"{protocol.__name__}, a callable ({protocol.__doc__.strip().splitlines()[0]})")
-        return value
-    return rule
-
-
 def _split_union(text: str) -> list[str]:
     """The members of an annotation ``A | B[C, D] | None`` (top-level ``|`` only)."""
     parts, depth, cur = [], 0, ""
@@ -374,12 +365,36 @@ def _rule(name: str, annotation: Any, namespace: dict):
             return None, none_ok
         if not isinstance(obj, type) or not obj.__module__.startswith("fivebar"):
             return None, none_ok  # a type of another package: duck typing is its own business
-        if getattr(obj, "_is_protocol", False):
-            if len(parts) == 1 and callable(getattr(obj, "__call__", None)):
-                return _callable_rule(obj), none_ok
-            return None, none_ok
         classes.append(obj)
+    protocols = [c for c in classes if getattr(c, "_is_protocol", False)]
+    if protocols:
+        if len(protocols) < len(classes) or not all(_protocol_test(c) for c in protocols):
+            return None, none_ok  # a protocol the layer cannot test, or mixed with classes
+        return _protocol_rule(tuple(protocols)), none_ok
     return _class_rule(tuple(classes)), none_ok
+
+
+def _protocol_test(protocol: type) -> Callable[[Any], bool] | None:
+    """How a value is tested against a protocol of fivebar: a callable protocol (a period map)
+    by ``callable``, a ``runtime_checkable`` one by ``isinstance``; None if neither."""
+    if "__call__" in getattr(protocol, "__protocol_attrs__", ()) or (
+            "__call__" in protocol.__dict__):
+        return callable
+    if getattr(protocol, "_is_runtime_protocol", False):
+        return lambda value: isinstance(value, protocol)
+    return None
+
+
+def _protocol_rule(protocols: tuple[type, ...]):
+    tests = [_protocol_test(p) for p in protocols]
+    names = " or ".join(f"a {p.__name__} ({p.__doc__.strip().splitlines()[0][:-1].lower() if p.__doc__ else 'a protocol'})"
+                        for p in protocols)
+
+    def rule(label: str, value: Any) -> Any:
+        if not any(test(value) for test in tests):
+            raise InputTypeError(f"{label} = {_short(value)} ({type(value).__name__}) is not allowed: give {names}")
+        return value
+    return rule
 
 
 def _close_names(word: str, names: list[str]) -> str:

@@ -47,6 +47,7 @@ from ..description.params import Params
 from ..model.dynamics import linkage_dynamics
 from ..numerics.periodic import PeriodicOrbit, _one_blas_thread, shoot
 from ..description.setup import Setup, analysis, as_setup
+from .harmonic_balance import harmonic_balance_steady_state
 from .steady import SteadyState, _monodromy_period, _period, _to_tolerance, _warm_start, march, shooting
 
 __all__ = ["BruteForceDiagram", "LinkageBranch", "LinkagePeriodMap", "SpeedReport", "brute_force_diagram", "describe_speed",
@@ -676,6 +677,25 @@ def _describe(f: LinkagePeriodMap, p: float, st: SteadyState, periods: int,
                        "(quasi-periodic, chaotic or slowly settling)", "no periodic motion", orb)
 
 
+def _time_domain(solve, method: str):
+    """A method of :data:`STEADY_METHODS` in the time domain: at the set-up's S, or with ``tol``
+    at S = 50, 100, 200, ... until two successive S agree (:func:`fivebar.analyses.steady._to_tolerance`)."""
+
+    def run(s: Setup, tol: float | None, memo: dict | None) -> SteadyState:
+        return solve(s) if tol is None else _to_tolerance(s, method, tol, memo)
+    return run
+
+
+def _by_harmonic_balance(s: Setup, tol: float | None, memo: dict | None) -> SteadyState:
+    return harmonic_balance_steady_state(s, tol)  # (a warm start is refused before: shooting only)
+
+
+#: The methods of :func:`steady_state`, by name: ``(setup, tol, warm start) -> SteadyState``.
+#: A new method of periodic steady state is one module and one entry here.
+STEADY_METHODS = {"shooting": _time_domain(shooting, "shooting"), "march": _time_domain(march, "march"),
+                  "harmonic_balance": _by_harmonic_balance}
+
+
 @analysis
 def steady_state(
     setup: Setup | Params,
@@ -701,8 +721,12 @@ def steady_state(
         :class:`fivebar.description.params.Params` meaning ``Setup(params)`` (every setting from the
         parameter file: S = ``steps_per_period``, the ``[simulation] scheme``).
     method
-        "shooting" (damped Newton on periodicity, with Floquet multipliers) or "march" (period
-        by period from rest).
+        A name of :data:`STEADY_METHODS`: "shooting" (damped Newton on periodicity, with Floquet
+        multipliers), "march" (period by period from rest) or "harmonic_balance" (a Fourier
+        series of the period, with Hill's stability;
+        :func:`fivebar.analyses.harmonic_balance.harmonic_balance_steady_state`: with ``tol``
+        the number of harmonics is chosen for the accuracy, without it the parameter file's
+        ``fourier_terms``; the result is sampled at the set-up's S, which sets no step).
     tol
         Relative accuracy asked of the transverse midpoint deflections of L2 and L3 over the
         period (Figure 6), for example 0.01; ``None`` (default) solves at the set-up's S.  With
@@ -733,8 +757,9 @@ def steady_state(
         the inner tolerance of shooting.  Nothing is remembered between calls: the same
         arguments give the same result, to the last bit, whatever was computed before.
     """
-    if method not in ("shooting", "march"):
-        raise InputError(f"method = {method!r} is not allowed: use 'shooting' or 'march'")
+    if method not in STEADY_METHODS:
+        raise InputError(f"method = {method!r} is not allowed: use one of "
+                         + ", ".join(repr(m) for m in STEADY_METHODS))
     explain = flag("explain", explain)
     if explain and method != "shooting":
         raise InputError(f"explain = True and method = {method!r} are not allowed together: explain needs the "
@@ -743,12 +768,7 @@ def steady_state(
         tol = number("tol", tol, low=0.0, high=1.0, low_open=True, high_open=True)
     s = as_setup(setup)
     memo = None if start is None else _warm_start(start, s, method, tol)
-    if tol is not None:
-        res = _to_tolerance(s, method, float(tol), memo)
-    elif method == "shooting":
-        res = shooting(s)
-    else:
-        res = march(s)
+    res = STEADY_METHODS[method](s, None if tol is None else float(tol), memo)
     if explain and res.stable is False:
         res._cache["explained"] = explain_steady(res)
     outside = res._outside()

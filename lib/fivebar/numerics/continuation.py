@@ -121,6 +121,7 @@ import math
 import os
 import threading
 from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -133,6 +134,7 @@ __all__ = [
     "Branch",
     "BranchPoint",
     "ContinuationError",
+    "ResidualProblem",
     "continuation",
     "Settled",
     "iterated_map",
@@ -493,7 +495,7 @@ def _outside_nonreal(mu: NDArray[np.complex128]) -> int:
 @checked
 @_one_blas_thread
 def continuation(
-    period_map: PeriodMap,
+    period_map: PeriodMap | ResidualProblem,
     x0: ArrayLike,
     p0: float,
     p_end: float,
@@ -520,10 +522,13 @@ def continuation(
 
     Parameters
     ----------
-    period_map : PeriodMap
-        ``(x, p, jacobian) -> (x_T, Phi)`` (:func:`fivebar.numerics.periodic.newmark_map` of a family).
+    period_map : PeriodMap or ResidualProblem
+        ``(x, p, jacobian) -> (x_T, Phi)`` (:func:`fivebar.numerics.periodic.newmark_map` of a family),
+        or a :class:`ResidualProblem` (its zeros R(x, p) = 0 followed instead of fixed points:
+        harmonic balance, :class:`fivebar.numerics.harmonic_balance.HarmonicBalanceFamily`).
     x0 : array_like (N,)
-        A guess of the orbit at ``p0``; shot first (:func:`fivebar.numerics.periodic.shoot`).
+        A guess of the orbit at ``p0``; shot first (:func:`fivebar.numerics.periodic.shoot`; for a
+        residual problem, Newton's method on R).
     p0, p_end : float
         Start; the continuation stops when ``p`` passes ``p_end`` (the last point is corrected
         onto ``p = p_end``), leaves ``p_bounds``, or after ``max_points`` points.
@@ -588,19 +593,19 @@ def continuation(
                              f"low <= p0 <= high (p0 = {p0!r}), or None for the default")
         p_bounds = (lo, hi)
     if scale is None:
-        orb0 = shoot(period_map, x0, p0, tol=tol)
+        orb0 = _first_orbit(period_map, x0, p0, tol=tol)
         big = float(np.abs(orb0.x).max())
         D = np.full(x0.size, big if big > 0 else 1.0)
     else:
         D = np.asarray(scale, float)
         if D.shape != x0.shape or not np.all(D > 0):
             raise InputError(f"scale has shape {D.shape} or non-positive entries: give ({x0.size},) positive values")
-        orb0 = shoot(period_map, x0, p0, tol=tol, scale=D)
+        orb0 = _first_orbit(period_map, x0, p0, tol=tol, scale=D)
     x0 = orb0.x
     span = abs(p_end - p0)
     if p_bounds is None:
         p_bounds = (min(p0, p_end) - span * (p0 < p_end), max(p0, p_end) + span * (p0 > p_end))
-    prob = _Problem(period_map, D, float(p_scale), dp)
+    prob = _problem_of(period_map, D, float(p_scale), dp)
     prob.count(orb0.periods, orb0.iterations + 1)  # the shooting of the first orbit
     sgn = 1.0 if p_end > p0 else -1.0
 
@@ -1130,3 +1135,89 @@ def settle(period_map: PeriodMap, orbit: PeriodicOrbit, p: float | None = None, 
     except FivebarError:
         pass  # the samples looked periodic but no orbit is shot from them: not settled
     return Settled("no periodic motion", None, xs)
+
+
+# ==================================================================================================
+# Residual problems.  Everything continuation() needs to follow the zeros of R(x, p) = 0 (harmonic
+# balance) instead of the fixed points of a period map is in this section: _first_orbit and
+# _problem_of choose by the kind of problem, and _ResidualProblem gives the corrector, the step
+# control and the bifurcation tests (unchanged) the same G(y) and jac(y) -> (J, g, Phi) as _Problem.
+# ==================================================================================================
+
+@runtime_checkable
+class ResidualProblem(Protocol):
+    """A family of periodic solutions given by a residual R(x, p) = 0, to be continued.
+
+    ``residual(x, p) -> R`` (N,): zero at a solution, measured in the units of x (the
+    problem's own scaling: the continuation's tolerances compare it with x);
+    ``jacobian(x, p) -> (R_x (N, N), R_p (N,))``; ``monodromy(x, p) -> Phi`` (2 n, 2 n), a
+    monodromy matrix whose eigenvalues are the solution's Floquet multipliers (harmonic
+    balance: Hill's, :class:`fivebar.numerics.harmonic_balance.HarmonicBalanceFamily`).  ``Branch.stats``
+    counts a residual as a "period" and a Jacobian (with its multipliers) as a "monodromy".
+    :func:`switch_period_doubling` and :func:`settle` need a period map.
+    """
+
+    def residual(self, x: Array, p: float) -> Array: ...
+
+    def jacobian(self, x: Array, p: float) -> tuple[Array, Array]: ...
+
+    def monodromy(self, x: Array, p: float) -> Array: ...
+
+
+def _problem_of(problem, D: Array, ps: float, dp: float) -> _Problem:
+    """The continuation's problem object of a period map or of a residual problem."""
+    if isinstance(problem, ResidualProblem):
+        return _ResidualProblem(problem, D, ps, dp)
+    return _Problem(problem, D, ps, dp)
+
+
+class _ResidualProblem(_Problem):
+    """G = R / D and its Jacobian [R_x, R_p] in the scaled variables, Phi from the problem."""
+
+    def G(self, y):
+        x, p = self.D * y[:-1], self.ps * y[-1]
+        self.count(1)
+        return np.asarray(self.f.residual(x, p), float) / self.D
+
+    def jac(self, y):
+        x, p = self.D * y[:-1], self.ps * y[-1]
+        self.count(1, 1)
+        Rx, Rp = self.f.jacobian(x, p)
+        g = np.asarray(self.f.residual(x, p), float) / self.D
+        J = np.hstack([np.asarray(Rx, float) * self.D[None, :] / self.D[:, None],
+                       (np.asarray(Rp, float) * self.ps / self.D)[:, None]])
+        return J, g, np.asarray(self.f.monodromy(x, p), float)
+
+
+def _first_orbit(problem, x0: Array, p: float, tol: float, scale: Array | None = None,
+                 max_iter: int = 30) -> PeriodicOrbit:
+    """The first orbit: :func:`fivebar.periodic.shoot` of a period map, or Newton's method on
+    R(x, p0) = 0 of a residual problem (a step that does not reduce the scaled residual is
+    halved, up to 10 times; converged when the scaled residual is at most ``tol`` of the scaled
+    state, as the corrector's test)."""
+    if not isinstance(problem, ResidualProblem):
+        return shoot(problem, x0, p, tol=tol) if scale is None else shoot(problem, x0, p, tol=tol, scale=scale)
+    x = np.array(x0, float)
+    D = np.ones_like(x) if scale is None else np.asarray(scale, float)
+    count = 1
+    g = np.asarray(problem.residual(x, p), float) / D
+    for it in range(max_iter + 1):
+        r = float(np.linalg.norm(g))
+        if r <= tol * max(1.0, float(np.linalg.norm(x / D))):
+            return PeriodicOrbit(x, p, np.asarray(problem.monodromy(x, p), float), r, it, count)
+        if it == max_iter:
+            break
+        dx = -np.linalg.solve(np.asarray(problem.jacobian(x, p)[0], float), g * D)
+        lam = 1.0
+        for _ in range(11):
+            gt = np.asarray(problem.residual(x + lam * dx, p), float) / D
+            count += 1
+            if np.all(np.isfinite(gt)) and np.linalg.norm(gt) < r:
+                break
+            lam *= 0.5
+        else:
+            break
+        x, g = x + lam * dx, gt
+    raise ContinuationError(f"continuation: Newton's method on the residual did not converge at p = {p:.8g} "
+                            f"(scaled residual {np.linalg.norm(g):.3e}); give a better x0")
+
