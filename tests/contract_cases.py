@@ -83,7 +83,7 @@ CASES = [
     bad("load_params(bending_depth=0.01)", lambda: fb.load_params(overrides={"bending_depth": 0.01}),
         "bending_depth", "0.01"),
     bad("load_params(unknown key)", lambda: fb.load_params(overrides={"colour": 1}), "colour"),
-    bad("load_params(speed_ratio=1.5)", lambda: fb.Setup(P.replace(speed_ratio=1.5)), "speed_ratio", "1.5"),
+    good("load_params(speed_ratio=1.5)", lambda: fb.Setup(P.replace(speed_ratio=1.5))),
     bad("load_params(speed_ratio=sqrt 2)", lambda: fb.Setup(P.replace(speed_ratio=math.sqrt(2))),
         "speed_ratio", "1.414"),
     good("load_params(crank_speed_rpm=np.float32)", lambda: fb.load_params(overrides={"crank_speed_rpm": np.float32(300)})),

@@ -149,3 +149,26 @@ def test_a_four_bar_is_drawn_from_its_own_description():
     assert np.abs(transverse - st.midpoint_mm("coupler")[:-1:50]).max() < 1e-9 + 1e-9 * fr.peak_mm
     assert np.ptp(st.midpoint_mm("coupler")) > 1e-3
     assert len(animation.animate_modes(four, n_modes=2, frames=3).frames) == 3
+
+
+def test_the_mode_frames_pass_over_a_rotor_whirl_that_does_not_move_the_linkage():
+    """Issue 32: a heavy rotor on a thin shaft whirls (its transverse DOFs, decoupled from the links)
+    below the third linkage mode; the frames show the linkage's three lowest modes, those of the
+    model without the rotors' transverse DOFs (scipy's eigh on it), not the whirl, whose zero link
+    displacement made the normalisation NaN (a figure 'Axis limits cannot be NaN')."""
+    import scipy.linalg
+
+    from fivebar.model.assembly import build_model
+
+    p = fivebar.load_params().replace(**{"motor1.m0": 3.5, "motor1.J0": 0.03, "shaft_diameter_1": 0.011,
+                                         "shaft_diameter_2": 0.014})
+    data = animation.mode_frames(p, 3, 4)
+    model = build_model(p)
+    rotor = [d for dofs in model.motor_dofs.values() for d in dofs[:2]]
+    keep = np.setdiff1d(np.arange(model.n), rotor)
+    theta = crank_laws(p, np.zeros(1))[0::3]
+    M, K = model.matrices(*(float(a[0]) for a in theta))
+    w2 = scipy.linalg.eigh(K[np.ix_(keep, keep)], M[np.ix_(keep, keep)], eigvals_only=True)[:3]
+    assert data.frequencies[0] == pytest.approx(np.sqrt(w2) / (2 * np.pi), rel=1e-8)
+    assert fivebar.natural_frequencies(p, *(float(a[0]) for a in theta), n_modes=3)[2] < data.frequencies[0, 2]
+    assert all(np.isfinite(v).all() for s in data.shapes_mm for v in s.values()) and np.isfinite(data.curve).all()

@@ -83,3 +83,55 @@ def test_warnings_are_shown_as_admonitions_without_paths(monkeypatch):
     assert shown[0].startswith("```{warning} Outside the model's validity\n116 of 120 sweep rows")
     assert shown[0].endswith("\n```") and ".py" not in shown[0]
     assert [str(w.message) for w in outer] == ["another kind"]
+
+
+def test_a_chapter_of_the_fourbar_names_and_leaves_out_the_five_bars_entries(tmp_path):
+    """Issue 32: a reader's file is written for the book's five-bar; the four-bar's chapter takes the
+    entries its linkage uses (material, damping, speed) and names the others (the five-bar's coupler
+    length and mass at B, its speed ratio, a motor's data, a [linkage] of five joints), instead of
+    refusing the file ('unknown entries ... which the linkage does not use') or applying them."""
+    mine = tmp_path / "mine.toml"
+    mine.write_text("[geometry]\nL2 = 0.45\n[masses]\nm01 = 0.3\n[material]\nE = 210e9\n"
+                    "[assumptions]\nspeed_ratio = 2.0\ndamping_ratio = 0.03\nshaft_diameter_1 = 0.011\n"
+                    "em_variant = \"literal\"\n[motor1]\nm0 = 3.5\n")
+    base = [fivebar.DEFAULT_PARAMS_PATH, fivebar.FOURBAR_PARAMS_PATH]
+    with pytest.raises(fivebar.ParameterError, match="does not use"):
+        chapter.load([mine], base=base)  # the plain layering refuses the five-bar's names
+    p, ignored = chapter.load_other_linkage([mine], base=base)
+    own = chapter.load([], base=base)
+    assert p.E == 210e9 and p.damping_ratio == 0.03
+    assert [k.length for k in p.linkage.links] == [k.length for k in own.linkage.links]
+    assert [j.mass for j in p.linkage.joints] == [j.mass for j in own.linkage.joints]
+    assert set(ignored) == {"geometry.L2", "masses.m01", "assumptions.speed_ratio", "assumptions.shaft_diameter_1",
+                            "assumptions.em_variant", "motor1.m0"}
+    assert "five-bar" in ignored["assumptions.speed_ratio"] and "motor" in ignored["motor1.m0"]
+    # a misspelt entry is still refused, with the nearest name, as in every other chapter
+    typo = tmp_path / "typo.toml"
+    typo.write_text("[geometry]\nL22 = 0.45\n")
+    with pytest.raises(fivebar.ParameterError, match="did you mean 'geometry.L2'"):
+        chapter.load_other_linkage([typo], base=base)
+    # a [linkage] of the five-bar's five joints is not the four-bar's
+    five = tmp_path / "five.toml"
+    five.write_text('[linkage]\nname = "x"\nchain = ["A", "B", "C", "D", "E"]\nassembly = { joint = "C", side = "left" }\n'
+                    '[linkage.links]\nL1 = { start = "A", end = "B", length = "geometry.L1" }\n'
+                    'L2 = { start = "B", end = "C", length = "geometry.L2" }\n'
+                    'L3 = { start = "C", end = "D", length = "geometry.L3" }\n'
+                    'L4 = { start = "E", end = "D", length = "geometry.L4" }\n'
+                    '[linkage.joints]\nA = { kind = "crank", at = [0.0, 0.0] }\nB = { kind = "pin" }\n'
+                    'C = { kind = "pin" }\nD = { kind = "pin" }\nE = { kind = "crank", at = ["geometry.L5", 0.0] }\n')
+    p, ignored = chapter.load_other_linkage([five], base=base)
+    assert list(ignored) == ["linkage"] and p.linkage == own.linkage
+    assert chapter.load_other_linkage([], base=base) == (own, {})
+
+
+def test_the_applicability_note_is_empty_until_a_study_does_not_apply():
+    note = chapter.Applicability()
+    assert note.markdown() == "" and "The check" not in note
+    note.add("The check", "does not apply: no orbit at 600 r/min.", "Give a lower speed.")
+    note.ignored({"geometry.L2": "not a number of the four-bar"})
+    md = note.markdown()
+    assert md.startswith(chapter.Applicability.TITLE) and md.rstrip().endswith(":::")
+    assert "* **The check** does not apply: no orbit at 600 r/min.  Give a lower speed." in md
+    assert "`geometry.L2` (not a number of the four-bar)" in md and "The check" in note
+    with pytest.raises(fivebar.FivebarError, match="why"):
+        note.add("x", 1)

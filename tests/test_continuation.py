@@ -611,3 +611,42 @@ def test_jumps_of_a_hardening_and_a_softening_duffing_oscillator():
         assert js[True].p == pytest.approx(folds[1]) and js[False].p == pytest.approx(folds[0])
         assert (js[True].direction, js[False].direction) == (("down", "up") if alpha > 0 else ("up", "down"))
         assert all(len(j.after) == 1 for j in js.values())
+
+
+
+def test_every_change_of_stability_is_located_where_a_test_functions_location_fails(monkeypatch):
+    """Issue 32: a change of stability between two points that no test function locates (here the
+    fold test's locator gets no Jacobian at any trial point, as where the trial points cannot be
+    corrected; before, the fold was reported at the first point past it, up to a step away) is
+    located on the stability itself, max |mu| - 1: both folds of the Duffing loop where the DOP853
+    fold condition puts them (with the trapezoidal rule's period error), critical multiplier +1."""
+    import fivebar.numerics.continuation as cont
+
+    zeta, alpha, F, S = 0.05, 1.0, 0.1, 100
+    f = _duffing(zeta, alpha, F, S)
+    state = {"kind": None, "refused": 0}
+    locate = cont._locate
+
+    def locating(prob, kind, *args, **kwargs):
+        state["kind"] = kind
+        try:
+            return locate(prob, kind, *args, **kwargs)
+        finally:
+            state["kind"] = None
+
+    def refusing(x, p, jacobian):
+        if jacobian and state["kind"] == "fold":
+            state["refused"] += 1
+            raise NewtonConvergenceError("refused", 0.0, math.nan, 0)
+        return f(x, p, jacobian)
+
+    monkeypatch.setattr(cont, "_locate", locating)
+    br = continuation(refusing, np.zeros(2), 1.0, 1.4, ds=0.05, ds_max=0.3)
+    assert state["refused"] > 0
+    changes = np.flatnonzero(np.diff(br.stable.astype(int)))
+    assert sorted(b.index for b in br.bifurcations) == list(changes) and len(changes) == 2
+    period_error = (2 * math.pi / S) ** 2 / 12
+    for b in br.bifurcations:
+        assert b.kind == "fold" and b.distance() < 1e-6
+        ref = _duffing_fold_reference(zeta, alpha, F, np.r_[b.x, b.p])
+        assert abs(b.p * (1 + period_error) - ref[2]) < 2e-5

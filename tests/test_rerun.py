@@ -86,3 +86,29 @@ def test_rerun_refuses_bad_arguments(tmp_path, capsys):
     (tmp_path / "01_mechanism.ipynb").write_text(json.dumps(nb))
     assert rerun.main([str(params), "--chapters", str(tmp_path / "01_mechanism.ipynb"), "--no-html"]) == 2
     assert "no cell tagged 'parameters' in 01_mechanism" in capsys.readouterr().err
+
+
+def test_each_file_alone_and_the_matrix_with_what_does_not_apply(tmp_path):
+    """``--each``: every chapter with every file (not layered), in one pool; the matrix names what
+    each chapter said does not apply, from its note at the top (an Applicability display updated
+    by a later cell: papermill keeps the update where the note was shown)."""
+    a, b = tmp_path / "a.toml", tmp_path / "b.toml"
+    a.write_text("[assumptions]\ndamping_ratio = 0.0123\n")
+    b.write_text("[assumptions]\ndamping_ratio = 0.05\n")
+    nb_path = _chapter_copy(tmp_path, "note = fivebar.book.chapter.Applicability()\ndisplay(note)\n")
+    nb = json.loads(nb_path.read_text())
+    nb["cells"].append(_code("if params.damping_ratio > 0.02:\n"
+                             "    note.add('The light damping study', 'does not apply: the damping is heavy.', 'Give less.')"))
+    nb_path.write_text(json.dumps(nb))
+    out = tmp_path / "out"
+    status = rerun.main([str(a), str(b), "--each", "--chapters", str(nb_path), "--no-html", "--out", str(out),
+                         "--jobs", "2"])
+    assert status == 0
+    assert "damping ratio used: 0.0123" in _outputs_text(out / "a" / "01_mechanism.ipynb")
+    assert "damping ratio used: 0.05" in _outputs_text(out / "b" / "01_mechanism.ipynb")
+    assert rerun.applicability_notes(out / "a" / "01_mechanism.ipynb") == ()
+    notes = rerun.applicability_notes(out / "b" / "01_mechanism.ipynb")
+    assert notes == ("**The light damping study** does not apply: the damping is heavy.  Give less.",)
+    matrix = (out / "matrix.md").read_text()
+    assert "| 01_mechanism | ok (" in matrix and "ok, 1 not applicable" in matrix
+    assert "01_mechanism with `b`: **The light damping study** does not apply" in matrix

@@ -5,6 +5,7 @@ Run from the repository root with the project's environment (the Makefile does):
     .venv/bin/python book/_ext/fivebar_rerun.py mine.toml                  # every chapter
     .venv/bin/python book/_ext/fivebar_rerun.py mine.toml --chapters 09 12 # chapters 09 and 12
     .venv/bin/python book/_ext/fivebar_rerun.py a.toml b.toml --name ab    # b.toml over a.toml
+    .venv/bin/python book/_ext/fivebar_rerun.py a.toml b.toml --each       # each alone: the matrix
 
     make rerun PARAMS=mine.toml [CHAPTERS="09 12"] [JOBS=2] [HTML=0]
 
@@ -31,7 +32,14 @@ or the names ``09_figure6``):
    and is reported as a warning, rendered as plain text.
 
 Chapters run in parallel (``--jobs``, default 2: the kernels are separate processes, and the
-numba cache is shared).  The exit status is 0 when every chapter ran without a cell error,
+numba cache is shared).  Each run's wall time and CPU time (the kernel and the worker processes
+it started) are printed.  ``--each`` reruns the chapters with every file alone instead of
+layered, all chapter runs of all files in one pool of ``--jobs`` processes, the chapters that
+took longest in the book's own run first (their stored execution times): the rerun matrix of
+``make rerun-examples``, printed and written to ``_build/rerun/matrix.md`` as a table chapter x
+file: "ok", "ok, n not applicable" (the chapter's note at its top,
+:class:`fivebar.book.chapter.Applicability`, said that n of its studies do not apply, listed
+below the table), or "FAILED", each with its CPU seconds.  The exit status is 0 when every chapter ran without a cell error,
 1 otherwise: each failure is named by chapter and cell (index in the executed notebook,
 execution count, first line of the cell, the error; a failed physics check is a
 ``fivebar.book.chapter.CheckFailed``), and 2 for bad arguments (a file that does not exist, an
@@ -43,6 +51,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import sys
 import time
@@ -96,6 +105,8 @@ class Outcome:
     output: Path
     seconds: float
     error: str | None = None
+    cpu: float = float("nan")  # CPU seconds of the kernel and its worker processes
+    notes: tuple[str, ...] = ()  # what the chapter says does not apply (its applicability note)
 
 
 def _rel(path: Path) -> str:
@@ -136,6 +147,7 @@ def run_chapter(nb_path: Path, params_files: list[str], outdir: Path, cwd: Path 
 
     output = outdir / nb_path.name
     t0 = time.perf_counter()
+    c0 = _children_cpu()
     try:
         pm.execute_notebook(str(nb_path), str(output), parameters={"PARAMS_FILES": params_files},
                             cwd=str(cwd), progress_bar=False, log_output=False,
@@ -149,11 +161,40 @@ def run_chapter(nb_path: Path, params_files: list[str], outdir: Path, cwd: Path 
         kind = "failed physics check" if exc.ename.endswith("CheckFailed") else "cell error"
         msg = (f"{nb_path.stem}: {kind} in cell In [{exc.exec_count}] (cell {where} of "
                f"{_rel(output)}: `{_first_line(source)}`): {exc.ename}: {exc.evalue}")
-        return Outcome(nb_path.stem, output, time.perf_counter() - t0, msg)
+        return Outcome(nb_path.stem, output, time.perf_counter() - t0, msg, _children_cpu() - c0)
     except Exception as exc:  # the kernel died, a timeout, ...
         return Outcome(nb_path.stem, output, time.perf_counter() - t0,
-                       f"{nb_path.stem}: {type(exc).__name__}: {exc}")
-    return Outcome(nb_path.stem, output, time.perf_counter() - t0)
+                       f"{nb_path.stem}: {type(exc).__name__}: {exc}", _children_cpu() - c0)
+    return Outcome(nb_path.stem, output, time.perf_counter() - t0, None, _children_cpu() - c0,
+                   applicability_notes(output))
+
+
+def _children_cpu() -> float:
+    """CPU seconds (user + system) of this process's children that have ended (a chapter's
+    kernel, with the worker processes it waited for)."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+#: the first line of a chapter's note of the studies that do not apply to the reader's linkage
+#: (:class:`fivebar.book.chapter.Applicability`)
+NOTE_MARK = ":::{admonition} With your parameters"
+
+
+def applicability_notes(nb_path: Path) -> tuple[str, ...]:
+    """The items of the chapter's applicability note in an executed notebook (empty: every study
+    of the chapter applied)."""
+    try:
+        nb = json.loads(nb_path.read_text())
+    except (OSError, ValueError):
+        return ()
+    for cell in nb["cells"]:
+        for out in cell.get("outputs", []):
+            md = out.get("data", {}).get("text/markdown", "")
+            md = "".join(md) if isinstance(md, list) else md
+            if md.startswith(NOTE_MARK):
+                return tuple(line[2:].strip() for line in md.splitlines() if line.startswith("* "))
+    return ()
 
 
 def _title(nb_path: Path) -> str:
@@ -227,6 +268,52 @@ def build_html(name: str, outdir: Path, params_files: list[str], rerun: list[Pat
                         warningiserror=False, keep_going=True)
 
 
+def book_seconds(nb_path: Path) -> float:
+    """The chapter's execution time as stored with the book's outputs (its cells' execution
+    timestamps; 0 if it has none): the order in which a matrix starts its chapters, longest
+    first, so that the last to finish are short."""
+    from datetime import datetime
+
+    try:
+        cells = [c.get("metadata", {}).get("execution") for c in json.loads(nb_path.read_text())["cells"]]
+        cells = [c for c in cells if c]
+        a = datetime.fromisoformat(cells[0]["iopub.execute_input"].rstrip("Z"))
+        b = datetime.fromisoformat(cells[-1]["shell.execute_reply"].rstrip("Z"))
+        return (b - a).total_seconds()
+    except (OSError, ValueError, KeyError, IndexError):
+        return 0.0
+
+
+def _matrix(runs: dict[str, list[Outcome]], chapters: list[Path], wall: float) -> str:
+    """The matrix of a rerun of several files (``--each``) as a Markdown table: chapter x file,
+    "ok" (or "ok, n not applicable" with the notes below), "FAILED", and the CPU seconds."""
+    names = list(runs)
+    head = "| chapter | " + " | ".join(f"`{n}`" for n in names) + " | CPU (s) |"
+    lines = [head, "|" + "---|" * (len(names) + 2)]
+    notes = []
+    for p in chapters:
+        row, cpu = [], 0.0
+        for n in names:
+            o = next((o for o in runs[n] if o.chapter == p.stem), None)
+            if o is None:
+                row.append("-")
+                continue
+            cpu += o.cpu
+            if o.error:
+                row.append(f"FAILED ({o.cpu:.0f} s)")
+            elif o.notes:
+                row.append(f"ok, {len(o.notes)} not applicable ({o.cpu:.0f} s)")
+                notes += [f"- {p.stem} with `{n}`: {t}" for t in o.notes]
+            else:
+                row.append(f"ok ({o.cpu:.0f} s)")
+        lines.append(f"| {p.stem} | " + " | ".join(row) + f" | {cpu:.0f} |")
+    total = sum(o.cpu for out in runs.values() for o in out)
+    lines += ["", f"CPU {total:.0f} s in all, {wall:.0f} s of wall time."]
+    if notes:
+        lines += ["", "What the chapters said does not apply:", "", *notes]
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="fivebar_rerun.py", description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -235,6 +322,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="chapters to rerun (numbers such as 09, or names); default: all")
     ap.add_argument("--name", help="the name of the rerun, _build/rerun/<name> "
                     "(default: the files' stems joined by '+')")
+    ap.add_argument("--each", action="store_true",
+                    help="rerun with each file alone (not layered), every chapter with every file in one pool of "
+                    "--jobs processes (the matrix of make rerun-examples): _build/rerun/<stem> per file, and the "
+                    "matrix of outcomes and CPU times in _build/rerun/matrix.md")
     ap.add_argument("--jobs", type=int, default=2, help="chapters executed in parallel (default 2)")
     ap.add_argument("--no-html", action="store_true", help="only the executed notebooks")
     ap.add_argument("--out", type=Path, default=OUT, help="default: _build/rerun")
@@ -250,6 +341,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.jobs < 1:
         print(f"fivebar_rerun: --jobs {args.jobs} is not allowed: give 1 or more", file=sys.stderr)
         return 2
+    if args.each and args.name:
+        print("fivebar_rerun: --name is not allowed with --each (each file's rerun is named by its stem)",
+              file=sys.stderr)
+        return 2
     try:
         selected = select(args.chapters)
     except LookupError as exc:
@@ -260,47 +355,70 @@ def main(argv: list[str] | None = None) -> int:
         print(f"fivebar_rerun: no cell tagged 'parameters' in {', '.join(missing)}: "
               "these chapters cannot be rerun with other parameters", file=sys.stderr)
         return 2
-    name = args.name or "+".join(Path(f).stem for f in files)
-    outdir = args.out.resolve() / name
-    for old in outdir.glob("[0-9][0-9]_*.ipynb"):
-        old.unlink()
-    outdir.mkdir(parents=True, exist_ok=True)
-    cwd = shadow_tree(outdir)
+    # the reruns: one of the files layered, or (--each) one per file
+    runs = {Path(f).stem: [f] for f in files} if args.each else \
+        {args.name or "+".join(Path(f).stem for f in files): files}
+    if args.each and len(runs) < len(files):
+        print("fivebar_rerun: --each needs files of different names (stems)", file=sys.stderr)
+        return 2
+    dirs, cwds = {}, {}
+    for name in runs:
+        outdir = args.out.resolve() / name
+        for old in outdir.glob("[0-9][0-9]_*.ipynb"):
+            old.unlink()
+        outdir.mkdir(parents=True, exist_ok=True)
+        dirs[name], cwds[name] = outdir, shadow_tree(outdir)
+    # every chapter of every rerun, the longest (by the book's own times) first
+    order = sorted(selected, key=book_seconds, reverse=True) if len(runs) > 1 else selected
+    tasks = [(name, p) for p in order for name in runs]
 
     t0 = time.perf_counter()
-    print(f"rerunning {len(selected)} chapter(s) with {', '.join(files)} on {args.jobs} process(es) "
-          f"into {outdir}", flush=True)
-    outcomes = []
-    if args.jobs == 1 or len(selected) == 1:
-        for p in selected:
-            outcomes.append(run_chapter(p, files, outdir, cwd))
-            print(f"  {outcomes[-1].chapter}: {'FAILED' if outcomes[-1].error else 'ok'} "
-                  f"({outcomes[-1].seconds:.0f} s)", flush=True)
+    what = f"each of {len(files)} files" if args.each else ", ".join(files)
+    print(f"rerunning {len(selected)} chapter(s) with {what} on {args.jobs} process(es) into "
+          f"{args.out.resolve() if args.each else dirs[next(iter(runs))]}", flush=True)
+    outcomes: dict[str, list[Outcome]] = {name: [] for name in runs}
+
+    def report(name: str, o: Outcome) -> None:
+        outcomes[name].append(o)
+        tag = f"{name}: " if args.each else ""
+        state = "FAILED" if o.error else "ok" + (f", {len(o.notes)} not applicable" if o.notes else "")
+        print(f"  {tag}{o.chapter}: {state} ({o.seconds:.0f} s, CPU {o.cpu:.0f} s)", flush=True)
+
+    if args.jobs == 1 or len(tasks) == 1:
+        for name, p in tasks:
+            report(name, run_chapter(p, runs[name], dirs[name], cwds[name]))
     else:
         with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-            futures = [pool.submit(run_chapter, p, files, outdir, cwd) for p in selected]
-            for fut in futures:
-                outcomes.append(fut.result())
-                print(f"  {outcomes[-1].chapter}: {'FAILED' if outcomes[-1].error else 'ok'} "
-                      f"({outcomes[-1].seconds:.0f} s)", flush=True)
+            futures = [(name, pool.submit(run_chapter, p, runs[name], dirs[name], cwds[name])) for name, p in tasks]
+            for name, fut in futures:
+                report(name, fut.result())
     t_exec = time.perf_counter() - t0
-    failed = [o for o in outcomes if o.error]
-    print(f"executed in {t_exec:.0f} s", flush=True)
+    failed = [o for out in outcomes.values() for o in out if o.error]
+    print(f"executed in {t_exec:.0f} s (CPU {sum(o.cpu for out in outcomes.values() for o in out):.0f} s)",
+          flush=True)
+    if args.each:
+        table = _matrix(outcomes, selected, t_exec)
+        (args.out.resolve() / "matrix.md").write_text(table)
+        print(table, flush=True)
 
     html_status = 0
     if not args.no_html:
-        t1 = time.perf_counter()
-        try:
-            html_status = build_html(name, outdir, files, selected, {o.chapter for o in failed})
-        except Exception as exc:  # a book extension that stops the build
-            print(f"fivebar_rerun: the HTML build failed: {type(exc).__name__}: {exc}", file=sys.stderr)
-            html_status = 1
-        print(f"HTML in {time.perf_counter() - t1:.0f} s: {outdir / 'html' / 'index.html'}"
-              + ("" if html_status == 0 else f" (the build failed: {html_status})"), flush=True)
+        for name, rerun_files in runs.items():
+            t1 = time.perf_counter()
+            try:
+                status = build_html(name, dirs[name], rerun_files, selected,
+                                    {o.chapter for o in outcomes[name] if o.error})
+            except Exception as exc:  # a book extension that stops the build
+                print(f"fivebar_rerun: the HTML build failed: {type(exc).__name__}: {exc}", file=sys.stderr)
+                status = 1
+            html_status = html_status or status
+            print(f"HTML in {time.perf_counter() - t1:.0f} s: {dirs[name] / 'html' / 'index.html'}"
+                  + ("" if status == 0 else f" (the build failed: {status})"), flush=True)
     for o in failed:
         print(f"fivebar_rerun: {o.error}", file=sys.stderr)
     if failed:
-        print(f"fivebar_rerun: {len(failed)} of {len(outcomes)} chapter(s) failed", file=sys.stderr)
+        print(f"fivebar_rerun: {len(failed)} of {sum(len(v) for v in outcomes.values())} chapter run(s) failed",
+              file=sys.stderr)
         return 1
     return 1 if html_status else 0
 

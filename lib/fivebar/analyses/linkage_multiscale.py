@@ -74,6 +74,8 @@ class ModalModel:
     ----------
     dynamics : LinkageDynamics
     basis : fivebar.model.excitation.ModalBasis
+        Over the periods of its modes (:meth:`~fivebar.model.excitation.ModalBasis.extended`:
+        one period of the motion unless a mode returns with the opposite sign or as another).
     system : ModalSystem
         :math:`\bar\omega, \zeta, \alpha, \bar\delta, \bar\gamma` (epsilon absorbed).
     harmonics : tuple of Harmonic
@@ -100,7 +102,10 @@ class ModalModel:
 
     @property
     def crank_frequency(self) -> float:
-        r""":math:`\Omega` (rad/s), the fundamental of (2.10)."""
+        r"""The fundamental of the modal series (2.10) (rad/s): :math:`2\pi/T`, the crank
+        frequency :math:`\Omega` at equal crank speeds; :math:`2\pi/(LT)` where the modes are
+        periodic over L periods of the motion (``basis.periods`` of :func:`modal_model`'s
+        basis before :meth:`~fivebar.model.excitation.ModalBasis.extended`)."""
         return float(self.load.frequency)
 
 
@@ -215,7 +220,10 @@ def modal_model(
         :math:`2\boldsymbol\Phi^\top\mathbf M\dot{\boldsymbol\Phi}\dot{\boldsymbol\eta}`
         has no place in (3.4) and is left out.
     fourier_terms : int, optional
-        m of (2.10); default ``params.fourier_terms``.
+        m of (2.10), the harmonics of the motion's fundamental; default
+        :func:`fivebar.description.setup.fourier_harmonics` (``params.fourier_terms`` at equal
+        crank speeds).  Where the modes are periodic over L periods of the motion
+        (``ModalBasis.periods``), the series run over those with ``m L`` harmonics.
     nonlinear : bool
         Project the geometric nonlinearity (needs ``dyn`` built with ``nonlinear=True``).
     parametric : bool
@@ -230,15 +238,19 @@ def modal_model(
         Bad options, or an effective frequency that is not real (the speed is past the one at
         which spin softening cancels the mode's stiffness).
     """
+    from ..description.setup import fourier_harmonics
     from ..model.excitation import fourier_series, modal_basis
 
     if frequencies not in ("mean", "effective"):
         raise MultiscaleError(f"frequencies = {frequencies!r} is not allowed: use 'mean' or 'effective'")
     if basis not in ("instantaneous", "reference"):
         raise MultiscaleError(f"basis = {basis!r} is not allowed: use 'instantaneous' or 'reference'")
-    B = modal_basis(dyn, n_modes, basis)
-    m = dyn.params.fourier_terms if fourier_terms is None else fourier_terms
-    load = fourier_series(B.project(dyn.step_data.F), dyn.period, m)
+    # over the periods of the modes (one, unless a mode returns after a period with the opposite
+    # sign or as another: ModalBasis.wrap), with m harmonics of the motion's fundamental
+    one = modal_basis(dyn, n_modes, basis)
+    B = one.extended()
+    m = (fourier_harmonics(dyn.params) if fourier_terms is None else fourier_terms) * one.periods
+    load = fourier_series(B.project(one.tile(dyn.step_data.F)), B.period, m)
     k = B.n_modes
     S = B.t.size
     if basis == "instantaneous":
@@ -248,7 +260,7 @@ def modal_model(
             Kt = Kt + B.kinematic_stiffness
     else:
         Kt = np.broadcast_to(np.diag(B.mean_omega**2), (S, k, k))
-    stiff = fourier_series(Kt.reshape(S, k * k), dyn.period, m)
+    stiff = fourier_series(Kt.reshape(S, k * k), B.period, m)
     wbar = B.mean_omega
     if frequencies == "effective":
         w2 = wbar**2 + np.diag(B.kinematic_stiffness.mean(axis=0))
@@ -285,7 +297,8 @@ def modal_model(
 def default_detuning(model: ModalModel) -> float:
     r"""Detuning tolerance for the linkage: ``min(DEFAULT_DETUNING, 0.45 Omega / max omega)``.
 
-    Harmonics :math:`k\Omega` are :math:`\Omega` apart; below half that spacing (relative to
+    Harmonics :math:`k\Omega` are :math:`\Omega` apart (:attr:`ModalModel.crank_frequency`, the
+    fundamental of the series); below half that spacing (relative to
     the highest kept frequency) at most one harmonic is resonant with each mode, so a rotating
     frame exists (see :func:`modulation_equations`).
     """
@@ -383,9 +396,10 @@ def multiple_scales(
     t = np.arange(S + 1) * dyn.dt
     eta = slow.eta(t).T  # (S+1, k)
     eta_dot = slow.eta_dot(t).T
-    Phi = np.concatenate([model.basis.shapes, model.basis.shapes[:1]])
+    # the basis over the periods of its modes: its first S + 1 steps (one period and the next step)
+    Phi = np.concatenate([model.basis.shapes, model.basis.shapes[:1]])[: S + 1]
     Phid = model.basis.shapes_dot
-    Phid = np.concatenate([Phid, Phid[:1]])
+    Phid = np.concatenate([Phid, Phid[:1]])[: S + 1]
     u = np.einsum("sik,sk->si", Phi, eta)
     v = np.einsum("sik,sk->si", Phi, eta_dot) + np.einsum("sik,sk->si", Phid, eta)
     ms = MultipleScalesResponse(

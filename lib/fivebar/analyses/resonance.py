@@ -203,9 +203,11 @@ def _modal_data(params: Params, n_modes: int, steps: int, motors: bool, elements
 
     dyn = LinkageDynamics(Setup(params, steps_per_period=steps, motors=motors, nonlinear=False,
                                 elements_per_link=elements_per_link))
-    B = modal_basis(dyn, n_modes, antiperiodic=True)  # (frequencies and spin softening only)
+    B = modal_basis(dyn, n_modes)  # (frequencies and spin softening only)
     h = np.diag(B.kinematic_stiffness.mean(axis=0)) / params.crank_speed_rad_s**2
-    return B.omega, h
+    # the frequencies by rank at every instant (3.3); h of the modes tracked by their shapes, which
+    # keep their ranks unless two frequencies cross
+    return np.sort(B.omega, axis=1), h
 
 
 def _data(setup: Setup | Params, n_modes: int) -> tuple[NDArray, NDArray]:

@@ -392,8 +392,16 @@ def shooting(
     ``setup`` is the problem, a :class:`fivebar.description.setup.Setup` (its S, scheme, ...) or a
     :class:`fivebar.description.params.Params` (``Setup(params)``).  ``u0, v0`` default to the quasi-static state at t = 0.  Converged when the relative
     periodicity residual (energy norm) is below ``tol``.  A Newton step that does not reduce
-    the residual (or whose period fails to integrate) is halved, up to 10 times.  The returned
+    the residual (or whose period fails to integrate) is halved, up to 10 times; where none does
+    and the residual is within ten times ``tol``, the orbit is taken as converged to the round-off
+    of the period map (its ``residual`` says how far).  The returned
     state carries the Floquet multipliers of the orbit.
+
+    Where Newton's method fails from the start (with a dissipative scheme, as the default), the
+    linkage is marched from that start until the change over a period is below 1e-3 (at most
+    200 periods) and Newton's method starts again from there: a damped, stable linkage settles
+    near its orbit, which Newton's step from the quasi-static state can miss when the
+    deflections are large.  ``periods`` then counts the march too.
 
     The Jacobian :math:`\boldsymbol\Phi - \mathbf I` is factorised once and reused while it
     serves (the chord method): for the linear model :math:`\boldsymbol\Phi` does not depend on
@@ -405,8 +413,68 @@ def shooting(
     return _shooting(setup, u0, v0, tol, max_iter)
 
 
+#: where Newton's method on periodicity fails from its start, :func:`shooting` marches from that
+#: start until the change over a period falls below this (relative, energy norm), at most
+#: :data:`_SETTLE_PERIODS` periods, and shoots again from where the march got to
+_SETTLE_TOL, _SETTLE_PERIODS = 1e-3, 200
+
+
 def _shooting(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) -> SteadyState:
-    """:func:`shooting`, optionally started with ``monodromy`` (up to 32 DOFs): a monodromy
+    """:func:`shooting` (see :func:`_newton_orbit`); where Newton's method fails from the start
+    (no step along its direction reduces the residual, or it does not converge), and the scheme
+    is dissipative, the march from that start settles first (:func:`_settle`) and Newton's method
+    starts again from there: the orbit a damped, stable linkage settles on, which the Newton step
+    from the quasi-static state can miss when the deflections are large (the steel five-bar of
+    ``examples/params/steel_heavy_ratio2.toml``, 2 mm side in the plane, at 60 r/min: six periods
+    of march, then five of shooting).  The result is a function of the arguments alone."""
+    try:
+        return _newton_orbit(setup, u0, v0, tol, max_iter, monodromy)
+    except (SteadyStateError, NewtonConvergenceError) as first:
+        dyn, scheme, s = _problem(setup)
+        if scheme.rho_infinity >= 1.0:
+            raise
+        if u0 is None or v0 is None:
+            us, vs = _initial_state(dyn)
+            u0 = us if u0 is None else u0
+            v0 = vs if v0 is None else v0
+        try:
+            u, v, k, change = _settle(dyn, scheme, np.asarray(u0, float), np.asarray(v0, float), _SETTLE_TOL,
+                                      _SETTLE_PERIODS)
+        except (SteadyStateError, NewtonConvergenceError) as exc:
+            raise first from exc
+        try:
+            out = _newton_orbit(s, u, v, tol, max_iter)
+        except (SteadyStateError, NewtonConvergenceError) as second:
+            raise SteadyStateError(
+                f"{first}; then a march of {k} periods from the same start (last relative change over a period "
+                f"{change:.2e}) and shooting from there failed too: {second}") from second
+        out.periods += k
+        return out
+
+
+def _settle(dyn: LinkageDynamics, scheme: Scheme, u: NDArray, v: NDArray, tol: float,
+            max_periods: int) -> tuple[NDArray, NDArray, int, float]:
+    """March from (u, v) until the relative change over a period (energy norm) is below ``tol``,
+    for at most ``max_periods``, or until the change has not fallen to a new least value for 20
+    periods (the motion does not settle): the state reached, the periods and the last change.
+    Raises :class:`SteadyStateError` where the motion is no longer finite."""
+    change, least, at = np.inf, np.inf, 0
+    for k in range(1, max_periods + 1):
+        res = _period(dyn, u, v, scheme)
+        if not (np.all(np.isfinite(res.u[-1])) and np.all(np.isfinite(res.v[-1]))):
+            raise SteadyStateError(f"the march diverged in period {k}")
+        scale = _energy_norm(dyn, res.u, res.v).max()
+        change = float(_energy_norm(dyn, res.u[-1] - u, res.v[-1] - v)) / max(scale, 1e-300)
+        u, v = res.u[-1], res.v[-1]
+        if change < least:
+            least, at = change, k
+        if change <= tol or k - at >= 20:
+            break
+    return u, v, k, change
+
+
+def _newton_orbit(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) -> SteadyState:
+    """Newton's method of :func:`shooting`, optionally started with ``monodromy`` (up to 32 DOFs): a monodromy
     matrix (2 n, 2 n) of a nearby problem (the same model at a neighbouring speed) as the chord
     iteration's first Jacobian; the orbit's own replaces it when a step with it falls short, as
     with a stale one.  The orbit's own monodromy matrix, when one was taken, is kept with the
@@ -471,8 +539,9 @@ def _shooting(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) ->
     current = not given
     own = not given  # W is this problem's own monodromy matrix (not the one given)
     refresh = False  # evaluate the next trial with its monodromy matrix
+    floor = False  # no step reduces a residual within _ROUNDOFF of tol: the round-off floor of the map
     for it in range(1, max_iter + 2):
-        if r <= tol:
+        if r <= tol or floor:
             if current and V is full:
                 floquet = _Constant(W * D[None, :])  # W = Phi diag(1 / D)
             else:
@@ -501,6 +570,9 @@ def _shooting(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) ->
                 continue
             lam *= 0.5
         else:
+            if r <= _ROUNDOFF * tol:  # as periodic as the period map's round-off lets it be (residual kept)
+                floor = True
+                continue
             raise SteadyStateError(
                 f"shooting: no step along the Newton direction (halved 10 times) reduces the "
                 f"periodicity residual {r:.3e} in iteration {it}; " + _remedy(scheme, dyn.steps_per_period)
@@ -523,6 +595,10 @@ def _shooting(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) ->
         "max_iter or start from a nearby orbit (u0, v0); " + _remedy(scheme, dyn.steps_per_period)
     )
 
+
+#: a residual that no Newton step reduces is accepted when it is within this factor of the tolerance:
+#: the round-off floor of the period map (the paper's rule at S = 3200 stopped at 1.006e-10 against 1e-10)
+_ROUNDOFF = 10.0
 
 #: shooting takes the whole monodromy matrix up to this many DOFs, and above them (with a
 #: dissipative scheme) Newton's method on the lowest frozen modes and Picard's on the rest

@@ -166,7 +166,8 @@ def mode_frames(params: Params, n_modes: int = 3, frames: int = 36, points: int 
     Each shape is normalised to a largest link displacement of 6 % of the first coupler's length
     (L2 of the five-bar) and its sign chosen to follow the previous frame (mode shapes have no
     sign of their own).  The modes
-    are numbered by frequency at each angle.
+    are numbered by frequency at each angle; a whirl mode of the motors' rotors, which does not
+    move the linkage, is passed over.
     """
     from ..model.assembly import build_model
     from ..analyses.modal import frequencies_along_cycle, modes
@@ -178,11 +179,27 @@ def mode_frames(params: Params, n_modes: int = 3, frames: int = 36, points: int 
     phi = np.arange(F) * 2 * np.pi / F
     theta = crank_laws(params, phi / params.crank_speed_rad_s)[0::3]  # the angle of each driven crank
     model = build_model(params, motors=motors)
+    # the rotors' whirl (their transverse DOFs) does not couple to the links: a whirl mode among the
+    # lowest does not move the linkage and is passed over (the heavy rotor on a thin shaft of
+    # examples/params/motors_shafts.toml whirls at 364 Hz, below the third linkage mode)
+    rotor = [d for dofs in model.motor_dofs.values() for d in dofs[:2]]
+    links = np.setdiff1d(np.arange(model.n), rotor)
+
+    def linkage_modes(angles) -> tuple[NDArray, NDArray, bool]:
+        """The n lowest modes that move the linkage, and whether a whirl mode was passed over."""
+        m = modes(params, *angles, n_modes=n, model=model)
+        if (np.linalg.norm(m.shapes[links], axis=0) > 0).all():
+            return m.frequencies, m.shapes, False
+        m = modes(params, *angles, n_modes=min(n + len(rotor), model.n), model=model)
+        keep = np.flatnonzero(np.linalg.norm(m.shapes[links], axis=0) > 0)[:n]
+        return m.frequencies[keep], m.shapes[:, keep], True
+
     f = np.empty((F, n))
     V = np.empty((F, model.n, n))
+    whirl = False
     for i in range(F):
-        m = modes(params, *(float(a[i]) for a in theta), n_modes=n, model=model)
-        f[i], V[i] = m.frequencies, m.shapes
+        f[i], V[i], passed = linkage_modes(tuple(float(a[i]) for a in theta))
+        whirl = whirl or passed
         if i:
             V[i] *= np.sign(np.einsum("jk,jk->k", V[i], V[i - 1]) + 1e-300)
     rigid = None
@@ -194,7 +211,11 @@ def mode_frames(params: Params, n_modes: int = 3, frames: int = 36, points: int 
         peak = np.max([np.linalg.norm(v, axis=-1).max(axis=1) for v in el.values()], axis=0)  # (F,)
         shapes.append({L: 1e3 * (r[L] + (amplitude / peak)[:, None, None] * el[L]) for L in r})
     grid = np.linspace(0.0, 2 * np.pi, 145)
-    curve = frequencies_along_cycle(Setup(params, motors=motors), grid, n_modes=n)
+    if whirl:  # the linkage's frequencies, the whirl passed over as above
+        th = crank_laws(params, grid / params.crank_speed_rad_s)[0::3]
+        curve = np.array([linkage_modes(tuple(float(a[i]) for a in th))[0] for i in range(grid.size)])
+    else:
+        curve = frequencies_along_cycle(Setup(params, motors=motors), grid, n_modes=n)
     return ModeFrames(np.degrees(phi), f, {k: 1e3 * v for k, v in rigid.items()}, shapes,
                       1e3 * amplitude, np.degrees(grid), curve)
 

@@ -18,6 +18,13 @@ Everything below is computed from ``params``.  A chapter checks two kinds of sta
   table, a value quoted in the text).  It is checked only when the parameters are the book's;
   otherwise it prints, visibly, that it was skipped and which entries differ.
 
+A study of a chapter that does not apply to the reader's linkage (no fold in the range, an
+entry a four-bar does not have, a speed with no periodic orbit) is said at the top of the chapter,
+in a note (:class:`Applicability`) that the chapter fills in where it finds out, and the rest of
+the chapter runs.  A chapter of another linkage than the book's five-bar (the four-bar) takes
+from the reader's files only the entries that its linkage uses (:func:`load_other_linkage`) and
+names the others.
+
 No equation of the paper is implemented here.
 """
 
@@ -32,10 +39,10 @@ from typing import Any
 import numpy as np
 
 from ..errors import FivebarError, InputError, number
-from ..description.params import DEFAULT_PARAMS_PATH, Params, load_params
+from ..description.params import DEFAULT_PARAMS_PATH, Params, file_entries, load_params, unused_entry
 
-__all__ = ["CheckFailed", "admonition", "book_value_check", "differences", "is_book_params", "load", "physics_check",
-           "warnings_shown"]
+__all__ = ["Applicability", "CheckFailed", "admonition", "book_value_check", "differences", "is_book_params", "load",
+           "load_other_linkage", "physics_check", "warnings_shown"]
 
 
 class CheckFailed(FivebarError, RuntimeError):
@@ -68,6 +75,111 @@ def load(files: Files = (), base: Files = DEFAULT_PARAMS_PATH, overrides: dict[s
     relative paths are read from the working directory of the notebook's kernel.
     """
     return load_params([*_paths("base", base), *_paths("files", files)], overrides=overrides)
+
+
+def load_other_linkage(files: Files = (), base: Files = DEFAULT_PARAMS_PATH) -> tuple[Params, dict[str, str]]:
+    """The parameters of a chapter whose linkage is not the book's five-bar, and the entries of
+    the reader's files it leaves out: ``params, ignored = load_other_linkage(PARAMS_FILES,
+    base=[fivebar.DEFAULT_PARAMS_PATH, fivebar.FOURBAR_PARAMS_PATH])``.
+
+    A reader's file is written for the book (its five-bar): every entry is checked as the book
+    reads it (over ``wang2011.toml`` alone: a misspelt name is refused there, with the nearest
+    known name), and the entries that ``base``'s linkage does not use
+    (:func:`fivebar.description.params.unused_entry`: the five-bar's L2 or speed ratio, a motor's
+    data for a linkage without motors, a ``[linkage]`` of another number of joints) are left out
+    and returned, key -> why, for the chapter to name (:meth:`Applicability.ignored`); the others
+    are layered over ``base``.  With no files: ``base``'s parameters and ``{}``.
+    """
+    base_paths, file_paths = _paths("base", base), _paths("files", files)
+    own = load_params(base_paths)
+    if not file_paths:
+        return own, {}
+    book = load_params([DEFAULT_PARAMS_PATH, *file_paths])  # the reader's files as every other chapter reads them
+    entries: dict[str, Any] = {}
+    for path in file_paths:
+        entries.update(file_entries(path))
+    ignored: dict[str, str] = {}
+    used: dict[str, Any] = {}
+    for key, value in entries.items():
+        if key == "linkage":
+            joints = len(value.get("chain", ())) if isinstance(value, dict) else 0
+            if joints != len(own.linkage.chain):
+                ignored[key] = (f"it describes a linkage of {joints} joints, not this chapter's {own.linkage.name!r} "
+                                f"of {len(own.linkage.chain)}")
+                continue
+            used[key] = value
+            continue
+        why = unused_entry(own, key, book)
+        if why:
+            ignored[key] = why
+        else:
+            used[key] = value
+    return (own.replace(**used) if used else own), ignored
+
+
+class Applicability:
+    """The note, at the top of a chapter, of its studies that do not apply to the reader's linkage.
+
+    ``applies = fivebar.book.chapter.Applicability()`` as the last line of a cell near the top
+    shows the note, empty while every study applies (as with the book's parameters: nothing is
+    shown); where the chapter finds that one does not, ``applies.add(study, why, change)`` adds
+    it, and ``applies.ignored(entries)`` names entries of the reader's files that the chapter's
+    linkage does not use.  The note is one display updated in place (IPython's
+    ``update_display``; papermill and the book's build keep the update), so it stays at the top
+    wherever the chapter finds out.  ``study in applies`` says whether a study was reported.
+    """
+
+    #: the first line of a note with items (fivebar_rerun.py reads it to draw the rerun matrix)
+    TITLE = ":::{admonition} With your parameters, not all of this chapter applies"
+
+    def __init__(self) -> None:
+        import uuid
+
+        self.items: list[tuple[str, str, str]] = []
+        self._id = f"fivebar-applicability-{uuid.uuid4().hex}"
+        self._shown = False
+
+    def __contains__(self, study: object) -> bool:
+        return any(study == s for s, _, _ in self.items)
+
+    def markdown(self) -> str:
+        """The note as MyST Markdown ("" when every study applies)."""
+        if not self.items:
+            return ""
+        lines = [self.TITLE, ":class: note", ""]
+        lines += [f"* **{study}** {why}" + (f"  {change}" if change else "") for study, why, change in self.items]
+        return "\n".join(lines + [":::"]) + "\n"
+
+    def _ipython_display_(self) -> None:
+        from IPython.display import Markdown, display
+
+        display(Markdown(self.markdown()), display_id=self._id)
+        self._shown = True
+
+    def _update(self) -> None:
+        if self._shown:
+            from IPython.display import Markdown, update_display
+
+            update_display(Markdown(self.markdown()), display_id=self._id)
+
+    def add(self, study: str, why: str, change: str = "") -> None:
+        """Report that ``study`` (a few words naming it, e.g. "The hysteresis loop") does not apply:
+        ``why`` in the book's words, starting with a verb ("does not apply: the branch has no
+        fold in the range followed."), and ``change``, what the reader can change to see it."""
+        for name, value in (("study", study), ("why", why), ("change", change)):
+            if not isinstance(value, str):
+                raise InputError(f"{name} = {value!r} is not allowed: give a sentence (str)")
+        if study not in self:
+            self.items.append((study, why, change))
+            self._update()
+
+    def ignored(self, entries: dict[str, str], linkage: str = "this chapter's linkage") -> None:
+        """Name the entries of the reader's files that the chapter leaves out (key -> why, as
+        :func:`load_other_linkage` returns them)."""
+        if entries:
+            listed = "; ".join(f"`{k}` ({why})" for k, why in entries.items())
+            self.add("Entries of your files", f"are not used by {linkage} and are left out here: {listed}.",
+                     "The other chapters use them.")
 
 
 def differences(params: Params, reference: Params | Files | None = None) -> dict[str, tuple[Any, Any]]:

@@ -24,14 +24,15 @@ import warnings
 from importlib import resources
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, fields, replace
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
 from ..errors import FivebarError, ParameterError, ValidityWarning, plain
 from .linkage import Linkage, Material, Section, linkage_from_toml
 
-__all__ = ["Motor", "Motors", "Params", "load_params", "DEFAULT_PARAMS_PATH", "FOURBAR_PARAMS_PATH",
-           "SIXBAR_PARAMS_PATH", "SLIDER_CRANK_PARAMS_PATH"]
+__all__ = ["Motor", "Motors", "Params", "load_params", "file_entries", "unused_entry", "DEFAULT_PARAMS_PATH",
+           "FOURBAR_PARAMS_PATH", "SIXBAR_PARAMS_PATH", "SLIDER_CRANK_PARAMS_PATH", "MOTOR_ONLY"]
 
 #: The parameter file shipped with the package (``fivebar/data/wang2011.toml``, package data
 #: read through ``importlib.resources``; ``data/wang2011.toml`` of the repository links to it).
@@ -102,6 +103,13 @@ _SCHEMA: dict[str, tuple[Any, str]] = {
     "assumptions.damping_model": (("choice", ("modal", "stiffness")), "-"),
 }
 _ALL_KEYS = dict(_SCHEMA)
+#: the assumptions that only the motor elements use (the field, the rotors' eccentricity and
+#: whirl, the shafts): a linkage without motors does not use them
+MOTOR_ONLY = frozenset({
+    "assumptions.supply_frequency", "assumptions.phase_phi10", "assumptions.phase_phi20",
+    "assumptions.static_eccentricity_angle", "assumptions.shaft_E", "assumptions.shaft_G",
+    "assumptions.shaft_rho", "assumptions.gap_flux_density", "assumptions.em_variant",
+    "assumptions.eccentricity_scale"})
 #: sections whose entries are free names (the numbers a linkage description refers to)
 _OPEN = {"geometry": ("pos", "m"), "masses": ("nonneg", "kg")}
 
@@ -338,9 +346,24 @@ class Params:
         return self.crank_speed_rpm * 2.0 * math.pi / 60.0
 
     @property
+    def turns(self) -> int:
+        """Turns of the drive phase (Omega t) in one period of the motion: the least common
+        denominator q of the cranks' speed ratios read as fractions p/q (1 for the paper's equal
+        speeds and for any integer ratio; 2 for ``speed_ratio = 0.5``: crank AB turns twice while
+        crank DE turns once).  A ratio that is no fraction of small integers gives 1 here; a
+        computation in time refuses it (:func:`fivebar.description.setup.drive_period`)."""
+        q = 1
+        for joint in self.linkage.cranks:
+            if joint.drive is not None:
+                d = _ratio_fraction(joint.drive.ratio).denominator
+                q = q * d // math.gcd(q, d)
+        return q
+
+    @property
     def period(self) -> float:
-        """Period of the motion (s): one turn of crank AB (for speed_ratio 1)."""
-        return 2.0 * math.pi / self.crank_speed_rad_s
+        """Period of the motion (s): :attr:`turns` turns of the drive phase, 2 pi q / Omega (one turn
+        of crank AB for equal speeds and integer speed ratios, two for a speed ratio of 1/2)."""
+        return 2.0 * math.pi * self.turns / self.crank_speed_rad_s
 
     @property
     def crank_motors(self) -> dict[str, Motor]:
@@ -385,6 +408,17 @@ class Params:
         out = _build(values, dict(self.meta))
         _refuse_unused(out, [(k, "Params.replace") for k in changed if _is_open(k)])
         return out
+
+
+#: the largest denominator of a speed ratio read as a fraction, and the tolerance of that reading
+RATIO_DENOMINATOR, RATIO_TOL = 1000, 1e-9
+
+
+def _ratio_fraction(r: float) -> Fraction:
+    """A crank's speed ratio as the fraction p/q (q <= :data:`RATIO_DENOMINATOR`) nearest to it;
+    ``Fraction(0)`` when none is within :data:`RATIO_TOL` (a motion that never repeats)."""
+    frac = Fraction(r).limit_denominator(RATIO_DENOMINATOR)
+    return frac if abs(float(frac) - r) <= RATIO_TOL * max(1.0, abs(r)) else Fraction(0)
 
 
 def _resolve_key(key: str, values: Mapping[str, Any] = {}) -> str:
@@ -448,6 +482,41 @@ def _refuse_unused(params: "Params", entries: list[tuple[str, str]]) -> None:
         f"linkage {name!r} does not use: {'; '.join(lines)}{more}.  It uses "
         f"{', '.join(used) if used else 'none of them'}; an entry kept for another use must be declared "
         "free: name = { value = ..., free = true }")
+
+
+def file_entries(path: str | Path) -> dict[str, Any]:
+    """The entries of one parameter file as :func:`load_params` layers them: dotted key -> value
+    (the ``value`` of a table entry), and ``"linkage"`` -> its ``[linkage]`` table if it has one.
+    Unknown keys are refused as there (:class:`~fivebar.errors.ParameterError`)."""
+    try:
+        with open(path, "rb") as fh:
+            doc = tomllib.load(fh)
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ParameterError(f"parameter file path = {str(path)!r} cannot be read: {exc}") from None
+    return _flatten(doc, str(path))[0]
+
+
+def unused_entry(params: "Params", key: str, book: "Params | None" = None) -> str:
+    """Why the linkage of ``params`` does not use the entry ``key`` ("" if it does): a number of
+    ``[geometry]``/``[masses]`` or of another description (``book``'s, e.g. the paper's five-bar:
+    its ``simulation.theta4_0``, ``assumptions.speed_ratio``) that this description does not
+    refer to, a motor section (or shaft diameter) no crank of it names, an assumption of the motor
+    elements when no crank has a motor.  ``"linkage"`` is never unused here (a later file's
+    ``[linkage]`` replaces the description)."""
+    name = params.linkage.name or "the linkage"
+    motors = {sec for _, sec in params.linkage.motors}
+    section = key.split(".", 1)[0]
+    free = _is_free(params.meta, key) or (book is not None and _is_free(book.meta, key))
+    if _is_open(key):
+        return "" if key in params.references or free else f"not a number of the {name}"
+    if book is not None and key in book.references and key not in params.references:
+        return f"a number of the {book.linkage.name or 'book'}, not of the {name}"
+    m = _MOTOR_SECTION.fullmatch(section) or _SHAFT_DIAMETER.fullmatch(key)
+    if m and f"motor{m.group(1)}" not in motors:
+        return f"the {name} has no crank driven by motor{m.group(1)}"
+    if key in MOTOR_ONLY and not motors:
+        return f"it acts on the motor elements, and the {name} has none"
+    return ""
 
 
 def _flatten(doc: Mapping[str, Any], origin: str) -> tuple[dict[str, Any], dict[str, dict]]:

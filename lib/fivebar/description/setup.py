@@ -21,15 +21,16 @@ import functools
 import inspect
 from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
-from typing import Any
-
+import math
 from fractions import Fraction
+from typing import Any
 
 from ..errors import InputError, InputTypeError, checker, flag, memory, number
 from ..numerics.schemes import GeneralizedAlpha, Newmark, Scheme
-from .params import Params
+from .params import RATIO_DENOMINATOR, Params, _ratio_fraction
 
-__all__ = ["PAPER_SCHEME", "SETUP_FIELDS", "Setup", "analysis", "as_setup", "default_scheme", "drive_period", "min_steps_per_period",
+__all__ = ["PAPER_SCHEME", "SETUP_FIELDS", "Setup", "analysis", "as_setup", "default_scheme", "drive_period", "fourier_harmonics",
+           "min_steps_per_period",
            "scheme_name"]
 
 #: The paper's rule (section 5, read as gamma = 1/2, beta = 1/4: errata E2): the
@@ -57,42 +58,49 @@ def scheme_name(scheme: Scheme) -> str:
     return type(scheme).__name__
 
 
-def min_steps_per_period(params: Params) -> int:
-    """Smallest S that resolves the motion: 2 m + 1 for the m Fourier terms of (2.10).
-
-    The rigid-body load of one period carries harmonics up to m times the crank frequency
-    (assumption ``fourier_terms``); fewer than 2 m + 1 samples per period alias them.
+def fourier_harmonics(params: Params) -> int:
+    """The harmonics of the period's fundamental 2 pi / T that carry ``fourier_terms`` (m)
+    harmonics of every crank: m max(p, q) for a speed ratio p/q (m for the paper's equal speeds;
+    2 m at a ratio of 2, whose crank DE turns at twice the fundamental, and at 1/2, whose period
+    is two turns of crank AB).  The default length of every Fourier series (2.10) of the motion.
     """
-    return 2 * int(params.fourier_terms) + 1
+    turns = params.turns
+    # crank j turns r_j q times per period: its k-th harmonic is the fundamental's k r_j q-th
+    most = max([abs(_ratio_fraction(j.drive.ratio)) * turns for j in params.linkage.cranks if j.drive is not None]
+               + [Fraction(1)])
+    return int(params.fourier_terms) * math.ceil(most)
 
 
-#: the largest denominator of a speed ratio read as a fraction, and the tolerance of that reading
-_RATIO_DENOMINATOR, _RATIO_TOL = 1000, 1e-9
+def min_steps_per_period(params: Params) -> int:
+    """Smallest S that resolves the motion: 2 h + 1 for the h = :func:`fourier_harmonics`
+    harmonics of (2.10) (h = m, the ``fourier_terms``, at equal crank speeds).
+
+    The rigid-body load of one period carries harmonics up to m times each crank's frequency
+    (assumption ``fourier_terms``); fewer than 2 h + 1 samples per period alias them.
+    """
+    return 2 * fourier_harmonics(params) + 1
 
 
 def drive_period(params: Params) -> tuple[Any, float]:
     """The speed ratio as a fraction and the period of the motion it implies (s).
 
     ``ratio, T = drive_period(params)``.  Crank DE turns ``speed_ratio`` times per turn of
-    crank AB; the motion repeats after q turns of AB when the ratio is p/q in lowest terms.  The
-    library's period is one turn of AB, so only integer ratios give a periodic steady state of
-    it: any other ratio raises :class:`~fivebar.errors.InputError` that says what the period
-    would be (or that there is none: a ratio that is not p/q with q <= 1000 within 1e-9).
+    crank AB; the motion repeats after q turns of AB when the ratio is p/q in lowest terms
+    (``params.period``, :attr:`~fivebar.description.params.Params.turns`).  A ratio that is no
+    fraction p/q with q <= 1000 (within 1e-9) raises :class:`~fivebar.errors.InputError`: the
+    motion never repeats and there is no periodic steady state.
     """
-    r = params.speed_ratio
-    frac = Fraction(r).limit_denominator(_RATIO_DENOMINATOR)
-    if abs(float(frac) - r) > _RATIO_TOL * max(1.0, r):
-        raise InputError(
-            f"speed_ratio = {r!r} is not allowed: it is not a ratio of small integers (p/q, q <= "
-            f"{_RATIO_DENOMINATOR}), so the crank motion never repeats and the linkage has no periodic "
-            "steady state; give an integer speed_ratio (crank DE turns that many times per turn of AB)")
-    if frac.denominator != 1:
-        q = frac.denominator
-        raise InputError(
-            f"speed_ratio = {r!r} = {frac} is not allowed: the motion repeats only after {q} turns of "
-            f"crank AB ({q} x {params.period:.4g} s), and the library's period is one turn of AB; give an "
-            "integer speed_ratio (crank DE turns that many times per turn of AB)")
-    return frac, params.period
+    for joint in params.linkage.cranks:
+        r = joint.drive.ratio if joint.drive is not None else 1.0
+        if r == 0.0:
+            continue  # an oscillating input (a driven slider's law): it repeats every turn of the drive phase
+        if _ratio_fraction(r) == 0:
+            name = "speed_ratio" if math.isclose(r, params.speed_ratio) else f"the speed ratio of crank {joint.name}"
+            raise InputError(
+                f"{name} = {r!r} is not allowed: it is not a ratio of small integers (p/q, q <= "
+                f"{RATIO_DENOMINATOR}), so the crank motion never repeats and the linkage has no periodic "
+                "steady state; give a ratio p/q such as 2 or 0.5 (crank DE turns p times while crank AB turns q times)")
+    return _ratio_fraction(params.speed_ratio), params.period
 
 
 def _estimated_dofs(epl: tuple[int, int, int, int] | None, motors: bool) -> int:
@@ -148,8 +156,9 @@ class Setup:
         if S < S_min:
             raise InputError(
                 f"steps_per_period = {S!r} is too small to resolve the motion: give an integer >= {S_min}; the "
-                f"load of (2.10) has {p.fourier_terms} harmonics of the crank frequency (fourier_terms), which "
-                f"need at least {S_min} steps per period (2 m + 1); the parameter file's default is "
+                f"load of (2.10) has {fourier_harmonics(p)} harmonics of the period's fundamental ({p.fourier_terms} "
+                f"of each crank's frequency: fourier_terms), which need at least {S_min} steps per period "
+                f"(2 m + 1); the parameter file's default is "
                 f"{p.steps_per_period}"
             )
         for name in ("motors", "nonlinear"):

@@ -45,8 +45,13 @@ offers two readings of (3.1):
 
 * ``"instantaneous"`` (the default): :math:`\mathbf u = \boldsymbol\Phi(t)\boldsymbol\eta`
   with the mass-normalised modes of the frozen structure at each instant, tracked along the
-  period by continuity (sorted by frequency, sign chosen so that
-  :math:`\boldsymbol\phi_r(t_j)^\top\mathbf M(t_j)\boldsymbol\phi_r(t_{j-1}) > 0`).  Then
+  period by continuity (the lowest at the first step, each carried on to the new mode of largest
+  overlap :math:`|\boldsymbol\phi_i(t_j)^\top\mathbf M(t_j)\boldsymbol\phi_r(t_{j-1})|`,
+  sign chosen so that it is positive: by frequency where the modes are apart, by shape where two
+  frequencies cross).  A tracked mode may come back after one period with the opposite sign (the
+  loop of the crank angles encircles a coincidence of two frequencies: it happens to a higher
+  mode at a speed ratio of 2) or as another mode; the modes are then periodic over two or more
+  periods, and the modal series run over those (:attr:`ModalBasis.wrap`).  Then
   :math:`\boldsymbol\Phi^\top\mathbf K\boldsymbol\Phi = \operatorname{diag}\omega_r(t)^2`
   exactly and the modal force is :math:`f_r(t) = \boldsymbol\phi_r(t)^\top\mathbf F(t)`,
   expanded by (2.10) after the projection.  The terms from
@@ -76,12 +81,14 @@ from fractions import Fraction
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import linear_sum_assignment
 
 from ..numerics.eigen import frozen_modes
 from ..errors import FivebarError
 from .dynamics import LinkageDynamics
 from .electromagnetics import field_frequencies, supply_frequency_for_speed
 from ..description.params import Params
+from ..description.setup import fourier_harmonics
 
 __all__ = [
     "ExcitationError",
@@ -213,11 +220,13 @@ def fourier_series(samples: ArrayLike, period: float, m: int) -> FourierSeries:
 
 def load_expansion(dyn: LinkageDynamics, m: int | None = None) -> FourierSeries:
     r"""(2.10) of the linkage load :math:`\mathbf F = \mathbf P - \mathbf M\ddot{\mathbf u}_r`
-    per DOF (kept DOFs of ``dyn``; N or N m), from its S samples.
+    per DOF (kept DOFs of ``dyn``; N or N m), from its S samples over the period of the motion.
 
-    ``m`` defaults to ``params.fourier_terms``.
+    ``m`` defaults to :func:`fivebar.description.setup.fourier_harmonics`: ``params.fourier_terms``
+    harmonics of each crank's frequency (``fourier_terms`` at equal crank speeds, twice as many
+    harmonics of the period's fundamental at a speed ratio of 2 or 1/2).
     """
-    m = dyn.params.fourier_terms if m is None else m
+    m = fourier_harmonics(dyn.params) if m is None else m
     return fourier_series(dyn.step_data.F, dyn.period, m)
 
 
@@ -359,18 +368,24 @@ class ModalBasis:
     t : ndarray (S,)
         Times of the steps (s).
     period : float
-        T (s).
+        T (s), the period of the motion.
     omega : ndarray (S, k)
-        Instantaneous natural frequencies :math:`\omega_r(t_j)` (rad/s), ascending.
+        Instantaneous natural frequencies :math:`\omega_r(t_j)` (rad/s) of the tracked modes
+        (ascending at the first step; a mode keeps its shape, not its rank, where frequencies
+        cross).
     shapes : ndarray (S, n, k)
         :math:`\boldsymbol\Phi(t_j)`, mass-normalised at each step (instantaneous) or the
         reference modes repeated (reference).
     mass : ndarray (S, n, n)
         :math:`\mathbf M(t_j)` (for the kinematic terms).
-    returns : ndarray (k,) or None
-        How each mode comes back after one period: +1, or -1 for an anti-periodic shape
-        (:math:`\boldsymbol\phi_r(t + T) = -\boldsymbol\phi_r(t)`: the cycle encircles a
-        frequency coincidence), kept only where :func:`modal_basis` is asked to; None: all +1.
+    wrap : ndarray (k, k) or None
+        The signed permutation :math:`\mathbf Q` with which the tracked modes return after one
+        period, :math:`\boldsymbol\Phi(t + T) = \boldsymbol\Phi(t)\mathbf Q` (None: the
+        identity, every mode returns to itself).  A mode may return with the opposite sign (its
+        shape is anti-periodic: the crank angles' loop encircles a coincidence of two
+        frequencies) or as another mode (where two frequencies cross); the modes are then
+        periodic over :attr:`periods` periods of the motion, over which :meth:`extended`
+        gives them.
     """
 
     kind: str
@@ -379,16 +394,7 @@ class ModalBasis:
     omega: NDArray
     shapes: NDArray
     mass: NDArray
-    returns: NDArray | None = None
-
-    def _neighbours(self) -> tuple[NDArray, NDArray]:
-        """The shapes one step later and one step earlier, across the period's end with the
-        modes' return signs."""
-        nxt, prv = np.roll(self.shapes, -1, axis=0), np.roll(self.shapes, 1, axis=0)
-        if self.returns is not None and np.any(self.returns < 0):
-            nxt[-1] = nxt[-1] * self.returns
-            prv[0] = prv[0] * self.returns
-        return nxt, prv
+    wrap: NDArray | None = None
 
     @property
     def n_modes(self) -> int:
@@ -396,23 +402,44 @@ class ModalBasis:
         return int(self.omega.shape[1])
 
     @property
+    def periods(self) -> int:
+        r"""L, the periods of the motion after which every tracked mode returns to itself
+        (:math:`\mathbf Q^L = \mathbf I`; 1 when :attr:`wrap` is None)."""
+        if self.wrap is None:
+            return 1
+        Q, L = self.wrap, 1
+        while not np.array_equal(Q, np.eye(self.n_modes)):
+            Q, L = Q @ self.wrap, L + 1
+        return L
+
+    @property
     def mean_omega(self) -> NDArray:
-        r"""The paper's frequency means (3.3): period means of :math:`\omega_r(t)` (rad/s)."""
-        return self.omega.mean(axis=0)
+        r"""The paper's frequency means (3.3): means of :math:`\omega_r(t)` (rad/s) over the
+        :attr:`periods` periods of each tracked mode."""
+        return self.extended().omega.mean(axis=0) if self.wrap is not None else self.omega.mean(axis=0)
+
+    def _neighbours(self) -> tuple[NDArray, NDArray]:
+        r""":math:`\boldsymbol\Phi(t_{j+1})` and :math:`\boldsymbol\Phi(t_{j-1})` at every step,
+        across the end of the period by :attr:`wrap`."""
+        ahead, behind = np.roll(self.shapes, -1, axis=0), np.roll(self.shapes, 1, axis=0)
+        if self.wrap is not None:
+            ahead[-1] = self.shapes[0] @ self.wrap
+            behind[0] = self.shapes[-1] @ self.wrap.T
+        return ahead, behind
 
     @property
     def shapes_dot(self) -> NDArray:
-        r""":math:`\dot{\boldsymbol\Phi}(t_j)` by periodic central differences (1/s)."""
+        r""":math:`\dot{\boldsymbol\Phi}(t_j)` by central differences, periodic (1/s)."""
         dt = self.period / self.t.size
-        nxt, prv = self._neighbours()
-        return (nxt - prv) / (2 * dt)
+        ahead, behind = self._neighbours()
+        return (ahead - behind) / (2 * dt)
 
     @property
     def shapes_ddot(self) -> NDArray:
-        r""":math:`\ddot{\boldsymbol\Phi}(t_j)` by periodic second differences (1/s^2)."""
+        r""":math:`\ddot{\boldsymbol\Phi}(t_j)` by second differences, periodic (1/s^2)."""
         dt = self.period / self.t.size
-        nxt, prv = self._neighbours()
-        return (nxt - 2 * self.shapes + prv) / dt**2
+        ahead, behind = self._neighbours()
+        return (ahead - 2 * self.shapes + behind) / dt**2
 
     @property
     def gyroscopic(self) -> NDArray:
@@ -442,19 +469,64 @@ class ModalBasis:
         r"""Physical displacements :math:`\boldsymbol\Phi(t_j)\boldsymbol\eta(t_j)`, (S, n)."""
         return np.einsum("sik,sk->si", self.shapes, np.asarray(eta, float))
 
+    def tile(self, X: ArrayLike) -> NDArray:
+        r"""A quantity of the motion at the S steps of one period, repeated over the
+        :attr:`periods` periods of the modes (the samples of :meth:`extended`'s steps)."""
+        X = np.asarray(X)
+        return np.concatenate([X] * self.periods) if self.wrap is not None else X
 
-def _track(Phi: NDArray, M: NDArray) -> NDArray:
-    r"""Flip signs so that each mode overlaps positively (in the mass metric) with the last."""
+    def extended(self) -> "ModalBasis":
+        r"""The same modes over :attr:`periods` periods of the motion, :math:`L S` steps, over
+        which they are periodic (``wrap`` None): block l holds
+        :math:`\boldsymbol\Phi(t + lT) = \boldsymbol\Phi(t)\mathbf Q^l` and the frequencies of
+        the modes so reached.  Itself when every mode returns after one period."""
+        if self.wrap is None:
+            return self
+        L, S = self.periods, self.t.size
+        shapes, omega = [self.shapes], [self.omega]
+        Q = np.eye(self.n_modes)
+        for _ in range(1, L):
+            Q = Q @ self.wrap
+            shapes.append(self.shapes @ Q)
+            omega.append(self.omega @ np.abs(Q))
+        dt = self.period / S
+        return ModalBasis(self.kind, np.arange(L * S) * dt, L * self.period, np.concatenate(omega),
+                          np.concatenate(shapes), self.tile(self.mass))
+
+
+def _assign(Phi: NDArray, M: NDArray, previous: NDArray) -> tuple[NDArray, NDArray]:
+    r"""The order and signs that carry the modes ``Phi`` (n, k) on from ``previous``: the
+    assignment of the new modes to the old that maximises the sum of the absolute overlaps
+    :math:`|\boldsymbol\phi_i^\top\mathbf M\boldsymbol\phi^{\rm old}_r|`
+    (:func:`scipy.optimize.linear_sum_assignment`), each overlap made positive.  Returns
+    ``order`` (new mode for old mode r) and ``signs``."""
+    O = Phi.T @ M @ previous  # [new, old]
+    k = O.shape[0]
+    order = np.arange(k)
+    if k > 1 and np.any(np.abs(np.diag(O)) < np.abs(O).max(axis=0)):  # some mode is nearer another's rank
+        new, old = linear_sum_assignment(-np.abs(O))
+        order[old] = new
+    s = np.sign(O[order, np.arange(k)])
+    s[s == 0] = 1.0
+    return order, s
+
+
+def _track(Phi: NDArray, M: NDArray, omega: NDArray) -> NDArray:
+    r"""Follow each mode along the period by its shape (:func:`_assign` from step to step), in
+    place; returns the wrap :math:`\mathbf Q` (k, k), :math:`\boldsymbol\Phi(T) =
+    \boldsymbol\Phi(0)\mathbf Q`, of the modes carried on to the first step once more."""
     for j in range(1, Phi.shape[0]):
-        s = np.sign(np.einsum("ik,ij,jk->k", Phi[j], M[j], Phi[j - 1]))
-        s[s == 0] = 1.0
-        Phi[j] *= s
-    return Phi
+        order, s = _assign(Phi[j], M[j], Phi[j - 1])
+        Phi[j] = Phi[j][:, order] * s
+        omega[j] = omega[j][order]
+    order, s = _assign(Phi[0], M[0], Phi[-1])
+    Q = np.zeros((Phi.shape[2], Phi.shape[2]))
+    Q[order, np.arange(len(order))] = s
+    return Q
 
 
 def modal_basis(
-    dyn: LinkageDynamics, n_modes: int = 2, kind: str = "instantaneous", reference_step: int = 0,
-    antiperiodic: bool = False,
+    dyn: LinkageDynamics, n_modes: int = 2, kind: str = "instantaneous", reference_step: int = 0
 ) -> ModalBasis:
     r"""The modes of the linkage subsystem at the S steps of ``dyn`` (3.1).
 
@@ -467,18 +539,18 @@ def modal_basis(
         See the module docstring.
     reference_step : int
         Step whose configuration gives the reference modes (``kind="reference"``).
-    antiperiodic : bool
-        Keep an instantaneous mode that comes back with the opposite sign after one period (its
-        sign in :attr:`ModalBasis.returns`): its frequency and kinematic stiffness are sound, but
-        its modal force is anti-periodic (half harmonics), which :func:`modal_expansion` does not
-        represent.
+
+    The instantaneous modes are the ``n_modes`` lowest at the first step, each followed from
+    step to step by its shape (the overlap in the mass metric), so that where two frequencies
+    cross a mode keeps its shape, not its rank.  A mode that returns after one period with the
+    opposite sign, or as another mode, is recorded in the basis's ``wrap``; the modes are then
+    periodic over several periods of the motion (``ModalBasis.periods``, ``extended()``), and
+    the modal series (:func:`modal_expansion`) run over those periods.
 
     Raises
     ------
     ExcitationError
-        Bad arguments, or (unless ``antiperiodic``) instantaneous modes that do not return to
-        themselves after one period (a mode tracked around the cycle coming back with the
-        opposite sign).
+        Bad arguments.
     """
     if kind not in _BASES:
         raise ExcitationError(f"kind = {kind!r} is not allowed: use one of {list(_BASES)}")
@@ -491,30 +563,28 @@ def modal_basis(
     k = int(n_modes)
     omega = np.empty((S, k))
     Phi = np.empty((S, dyn.n, k))
-    w2, Phi[:] = frozen_modes(sd.M, sd.K, k)
+    # the frozen structure's modes: of the symmetric part of K (with stiffness-proportional damping K
+    # holds a small circulatory term of the turning frames, linear in the speed: dynamics.py)
+    w2, Phi[:] = frozen_modes(sd.M, 0.5 * (sd.K + np.swapaxes(sd.K, -1, -2)), k)
     omega[:] = np.sqrt(w2)
-    returns = None
+    wrap = None
     if kind == "instantaneous":
-        Phi = _track(Phi, sd.M)
-        back = np.einsum("ik,ij,jk->k", Phi[-1], sd.M[0], Phi[0])
-        if antiperiodic:
-            returns = np.where(back <= 0, -1.0, 1.0)
-        elif np.any(back <= 0):
-            r = int(np.flatnonzero(back <= 0)[0]) + 1
-            raise ExcitationError(
-                f"mode {r} tracked over one period returns with the opposite sign (its shape is "
-                "anti-periodic: the cycle encircles a frequency coincidence); use kind='reference'"
-            )
+        Q = _track(Phi, sd.M, omega)
+        wrap = None if np.array_equal(Q, np.eye(k)) else Q
     else:
         Phi = np.broadcast_to(Phi[reference_step], Phi.shape).copy()
-    return ModalBasis(kind, dyn.t.copy(), dyn.period, omega, Phi, sd.M, returns)
+    return ModalBasis(kind, dyn.t.copy(), dyn.period, omega, Phi, sd.M, wrap)
 
 
 def modal_expansion(dyn: LinkageDynamics, basis: ModalBasis, m: int | None = None) -> FourierSeries:
     r"""(2.10) of the modal forces :math:`f_r(t) = \boldsymbol\phi_r^\top\mathbf F(t)`
-    (``m`` harmonics, default ``params.fourier_terms``).
+    over the periods of the modes (``basis.periods`` periods of the motion: one, unless a mode
+    returns with the opposite sign or as another), with ``m`` harmonics of the motion's
+    fundamental (default :func:`fivebar.description.setup.fourier_harmonics`), that is ``m L``
+    harmonics of the fundamental :math:`2\pi/(LT)` of the series.
 
     With mass-normalised modes (units kg^-1/2 on translations) the modal force is in
     kg^1/2 m / s^2 and the modal coordinate :math:`\eta_r` in kg^1/2 m."""
-    m = dyn.params.fourier_terms if m is None else m
-    return fourier_series(basis.project(dyn.step_data.F), dyn.period, m)
+    m = fourier_harmonics(dyn.params) if m is None else m
+    B = basis.extended()
+    return fourier_series(B.project(basis.tile(dyn.step_data.F)), B.period, m * basis.periods)

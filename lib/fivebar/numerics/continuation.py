@@ -72,6 +72,16 @@ a neutral saddle, and the count of non-real multipliers outside the circle also 
 a pair outside turns real, so that both can happen within one step with no multiplier on the
 circle) and the crossing goes to ``Branch.discarded`` instead of ``Branch.bifurcations``.
 
+**Every change of stability.**  Where the stability changes between two points of the branch
+(the largest multiplier's modulus passes 1) and no test function has located a bifurcation
+between them (a multiplier through +1 where the branch does not turn in the parameter, a
+branch point; or a located crossing whose multiplier was not on the circle), the crossing is
+located on the stability itself, :math:`\max_i|\mu_i| - 1`, by the same regula falsi, and
+named by the multiplier that crosses: a fold where it is +1 and :math:`\tau_p` changes sign,
+a *branch point* where it is +1 and the branch does not turn, a period doubling at -1, a
+Neimark-Sacker point where it is not real.  So every change of stability the continuation
+passes is a located bifurcation.
+
 **Branch switching at a period doubling.**  At the flip the period-2 orbits form a branch
 of fixed points of the twice-iterated map :math:`\mathbf P^2` that crosses the period-1
 branch with the tangent :math:`(\mathbf e, 0)`, :math:`\mathbf e` the eigenvector of the
@@ -204,7 +214,8 @@ class Bifurcation:
     Attributes
     ----------
     kind : str
-        "fold", "period doubling" or "Neimark-Sacker".
+        "fold", "period doubling" or "Neimark-Sacker"; "branch point" where a multiplier
+        crosses +1 and the branch does not turn in the parameter.
     p : float
         Parameter at the located point.
     x : ndarray
@@ -232,10 +243,10 @@ class Bifurcation:
 
     @property
     def critical(self) -> complex:
-        """The crossing multiplier: nearest +1 (fold), -1 (period doubling) or, for
-        Neimark-Sacker, the non-real one nearest the unit circle (positive imaginary part)."""
+        """The crossing multiplier: nearest +1 (fold, branch point), -1 (period doubling) or,
+        for Neimark-Sacker, the non-real one nearest the unit circle (positive imaginary part)."""
         mu = self.multipliers
-        if self.kind == "fold":
+        if self.kind in ("fold", "branch point"):
             return complex(mu[np.argmin(np.abs(mu - 1.0))])
         if self.kind == "period doubling":
             return complex(mu[np.argmin(np.abs(mu + 1.0))])
@@ -248,7 +259,7 @@ class Bifurcation:
         ``|mu - 1|`` (fold), ``|mu + 1|`` (period doubling), ``||mu| - 1|`` (Neimark-Sacker;
         infinite where no multiplier is non-real)."""
         c = self.critical
-        if self.kind == "fold":
+        if self.kind in ("fold", "branch point"):
             return abs(c - 1.0)
         if self.kind == "period doubling":
             return abs(c + 1.0)
@@ -473,6 +484,8 @@ def _tests(mu: NDArray[np.complex128], tangent: Array) -> dict[str, float]:
         "fold": float(tangent[-1]),
         "period doubling": float(np.prod(mu + 1.0).real),
         "Neimark-Sacker": float(np.prod(mu[i] * mu[j] - 1.0).real),
+        # not a bifurcation's test: the stability itself, where no test above locates its change
+        "stability": float(np.abs(mu).max() - 1.0),
     }
 
 
@@ -654,8 +667,16 @@ def continuation(
         pts.append(q)
         Jk, Jc = Jc, J1  # the Jacobians at the last point (the locator's chord) and at the new one
         prob.purpose = "locate"
-        for bif, located in _detect(prob, prev, q, len(pts) - 2, yk, tk, step, locate, locate_tol, periods, tol,
-                                    max_newton, Jk):
+        found = _detect(prob, prev, q, len(pts) - 2, yk, tk, step, locate, locate_tol, periods, tol, max_newton, Jk)
+        if locate and prev.stable != q.stable and not any(
+                located and bif.distance() <= critical_tol for bif, located in found):
+            # the stability changes between the points and no test function located it (none changed sign, its
+            # location failed, or its point had no multiplier on the circle): locate it on the stability itself
+            bif, located = _locate_change(prob, prev, q, len(pts) - 2, yk, tk, step, locate_tol, periods, tol,
+                                          max_newton, Jk)
+            if located and bif.distance() <= critical_tol:  # it replaces the reports at the point past it
+                found = [(b, loc) for b, loc in found if loc] + [(bif, True)]
+        for bif, located in found:
             (discarded if located and not bif.distance() <= critical_tol else bifs).append(bif)
         y, t = y1, t1
         if target is not None:
@@ -850,6 +871,27 @@ def _detect(prob, a: BranchPoint, b: BranchPoint, index, yk, tk, step, locate, l
             out.append((Bifurcation(kind, b.p, b.x, b.multipliers, index, (a.p, b.p),
                                     fb, b.tangent, periods), False))
     return out
+
+
+def _locate_change(prob, a: BranchPoint, b: BranchPoint, index, yk, tk, step, locate_tol, periods, tol,
+                   max_newton, Jk=None) -> tuple[Bifurcation, bool]:
+    """The change of stability between the points a and b, located where the largest multiplier's
+    modulus passes 1 (:func:`_locate` on the test "stability") and named by the multiplier that
+    crosses there: +1 a fold (the branch turns: its tangent's parameter component changes sign)
+    or a branch point, -1 a period doubling, a non-real one a Neimark-Sacker point."""
+    ta, tb = _tests(a.multipliers, a.tangent), _tests(b.multipliers, b.tangent)
+    bif, located = _locate(prob, "stability", a, b, index, yk, tk, step, ta["stability"], tb["stability"],
+                           locate_tol, periods, tol, max_newton, Jk)
+    mu = bif.multipliers
+    c = mu[np.argmin(np.abs(np.abs(mu) - 1.0))]  # the one on the circle
+    if abs(c.imag) > 1e-6 * max(1.0, abs(c)):
+        kind = "Neimark-Sacker"
+    elif c.real < 0:
+        kind = "period doubling"
+    else:
+        kind = "fold" if ta["fold"] * tb["fold"] < 0 else "branch point"
+    return Bifurcation(kind, bif.p, bif.x, bif.multipliers, bif.index, bif.p_bracket, bif.test, bif.tangent,
+                       bif.periods), located
 
 
 def _locate(prob, kind, a, b, index, yk, tk, step, fa, fb, locate_tol, periods, tol, max_newton, Jc=None):
