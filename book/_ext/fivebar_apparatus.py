@@ -174,10 +174,30 @@ def _fill_list_of_figures(app: Sphinx, doctree: nodes.document, docname: str) ->
                                   refuri=app.builder.get_relative_uri(docname, doc) + "#" + anchor)
             ref += nodes.Text(f"Fig. {number}")
             title = env_title(app, doc)
-            rows.append([nodes.paragraph("", "", ref), nodes.paragraph("", caption),
+            rows.append([nodes.paragraph("", "", ref), _caption_with_errata(app, docname, caption),
                          nodes.paragraph("", title)])
         node.replace_self(_table(["Figure", "Caption", "Chapter"], rows, [12, 68, 20],
                                  "fivebar-list-of-figures"))
+
+
+def _caption_with_errata(app: Sphinx, docname: str, caption: str) -> nodes.paragraph:
+    """A figure's caption for the list, its erratum mentions (E3) linked to their rows as in
+    the caption itself (the caption's text is taken from the figure's page, without its links)."""
+    labels = app.env.get_domain("std").anonlabels  # (docname, anchor) of the errata's rows
+    para = nodes.paragraph()
+    last = 0
+    for m in re.finditer(r"\bE(\d+)\b", caption):
+        target = labels.get(f"erratum-e{m.group(1)}")
+        if target is None:
+            continue
+        para += nodes.Text(caption[last:m.start()])
+        ref = nodes.reference("", "", internal=True,
+                              refuri=app.builder.get_relative_uri(docname, target[0]) + "#" + target[1])
+        ref += nodes.Text(m.group(0))
+        para += ref
+        last = m.end()
+    para += nodes.Text(caption[last:])
+    return para
 
 
 def env_title(app: Sphinx, doc: str) -> str:
