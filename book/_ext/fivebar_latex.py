@@ -176,9 +176,14 @@ class PrintedBook(SphinxPostTransform):
                 sof.parent.remove(sof)
                 continue
             if doc in numbered:
-                depth = r"\fivebarsecnumdepth" if numbered[doc] else "-1"
+                # an unnumbered page (a reference page) numbers its figures and tables from 1
+                # and without a chapter number, as the HTML does; a numbered chapter as "7.2"
+                depth, bare = ((r"\fivebarsecnumdepth", r"\fivebarbarenumbersfalse")
+                               if numbered[doc] else
+                               ("-1", r"\fivebarbarenumberstrue\setcounter{figure}{0}"
+                                      r"\setcounter{table}{0}"))
                 sof.parent.insert(sof.parent.index(sof),
-                                  _raw(r"\setcounter{secnumdepth}{%s}" % depth))
+                                  _raw(r"\setcounter{secnumdepth}{%s}%s" % (depth, bare)))
             elif isinstance(sof.next_node(nodes.section), nodes.section) and doc not in numbered:
                 # a part heading made from a caption: unnumbered as in the HTML
                 sof.parent.insert(sof.parent.index(sof), _raw(r"\setcounter{secnumdepth}{-2}"))
@@ -278,9 +283,12 @@ def _preamble(app: Sphinx, config: Any) -> None:
 % number in the unnumbered front matter
 % (at the beginning of the document: sphinx.sty sets them there, after the preamble)
 \makeatletter
+\newif\iffivebarbarenumbers
 \AtBeginDocument{\counterwithin*{figure}{chapter}\counterwithin*{table}{chapter}%
-  \renewcommand{\thefigure}{\ifnum\value{chapter}>\z@\thechapter.\fi\arabic{figure}}%
-  \renewcommand{\thetable}{\ifnum\value{chapter}>\z@\thechapter.\fi\arabic{table}}}
+  \renewcommand{\thefigure}{\iffivebarbarenumbers\else\ifnum\value{chapter}>\z@\thechapter.\fi\fi%
+    \arabic{figure}}%
+  \renewcommand{\thetable}{\iffivebarbarenumbers\else\ifnum\value{chapter}>\z@\thechapter.\fi\fi%
+    \arabic{table}}}
 \makeatother
 % the bibliography is the chapter "References"
 \addto\captionsenglish{\renewcommand{\bibname}{References}}
