@@ -111,6 +111,10 @@ def _breakable_words(node: nodes.Node, longer_than: int) -> None:
 #: a longtable whose columns' natural widths add up to more characters than this is set in
 #: wrapping columns of the page's width (a line of the book's text is about 95 characters)
 WIDE_TABLE_CHARS = 90
+#: the line of a longtable in characters of its 9 pt text (451 pt at 5-5.5 pt a character),
+#: and the padding of a column (two 6 pt \tabcolsep) in the same characters
+LINE_CHARS = 85
+COLUMN_PADDING_CHARS = 3
 
 
 def _fit_columns(table: nodes.table) -> None:
@@ -130,6 +134,7 @@ def _fit_columns(table: nodes.table) -> None:
     specs = [c for c in group.children if isinstance(c, nodes.colspec)]
     head = [0] * len(specs)
     natural = [0] * len(specs)
+    word = [0] * len(specs)  # the longest word of the column: what a line of it must hold
     for part in group.children:
         if not isinstance(part, (nodes.thead, nodes.tbody)):
             continue
@@ -141,10 +146,25 @@ def _fit_columns(table: nodes.table) -> None:
                 natural[k] = max(natural[k], len(text))
                 words = max((len(w) for w in text.split()), default=0)
                 head[k] = max(head[k], words if isinstance(part, nodes.thead) else len(text))
+                word[k] = max(word[k], min(words, TABLE_WORD_CHARS + 1))
     if sum(natural) + 2 * len(specs) <= WIDE_TABLE_CHARS:
         return
-    for spec, width in zip(specs, head):
-        spec["colwidth"] = max(3, min(width, 40))
+    # every column gets at least its longest word and its padding (two \tabcolsep, about
+    # COLUMN_PADDING_CHARS characters, which Sphinx takes off each column's share of the line:
+    # a share proportional to the cell lengths alone left a 5-character column 14 pt for
+    # "sigma"); the rest of the line is shared in proportion to what each column wants beyond
+    want = [max(3, min(width, 40)) for width in head]
+    least = [(w + COLUMN_PADDING_CHARS) / LINE_CHARS for w in word]
+    spare = 1.0 - sum(least)
+    more = [max(0, w - n) for w, n in zip(want, word)]
+    if spare > 0 and sum(more) > 0:
+        shares = [f + spare * m / sum(more) for f, m in zip(least, more)]
+    elif spare > 0:
+        shares = [f + spare / len(least) for f in least]
+    else:  # the words alone are wider than the line: as near to them as the line allows
+        shares = [f / sum(least) for f in least]
+    for spec, share in zip(specs, shares):
+        spec["colwidth"] = max(1, round(1000 * share))
     table["classes"].append("colwidths-given")
 
 
@@ -176,9 +196,14 @@ class PrintedBook(SphinxPostTransform):
                 sof.parent.remove(sof)
                 continue
             if doc in numbered:
-                depth = r"\fivebarsecnumdepth" if numbered[doc] else "-1"
+                # an unnumbered page (a reference page) numbers its figures and tables from 1
+                # and without a chapter number, as the HTML does; a numbered chapter as "7.2"
+                depth, bare = ((r"\fivebarsecnumdepth", r"\fivebarbarenumbersfalse")
+                               if numbered[doc] else
+                               ("-1", r"\fivebarbarenumberstrue\setcounter{figure}{0}"
+                                      r"\setcounter{table}{0}"))
                 sof.parent.insert(sof.parent.index(sof),
-                                  _raw(r"\setcounter{secnumdepth}{%s}" % depth))
+                                  _raw(r"\setcounter{secnumdepth}{%s}%s" % (depth, bare)))
             elif isinstance(sof.next_node(nodes.section), nodes.section) and doc not in numbered:
                 # a part heading made from a caption: unnumbered as in the HTML
                 sof.parent.insert(sof.parent.index(sof), _raw(r"\setcounter{secnumdepth}{-2}"))
@@ -278,9 +303,12 @@ def _preamble(app: Sphinx, config: Any) -> None:
 % number in the unnumbered front matter
 % (at the beginning of the document: sphinx.sty sets them there, after the preamble)
 \makeatletter
+\newif\iffivebarbarenumbers
 \AtBeginDocument{\counterwithin*{figure}{chapter}\counterwithin*{table}{chapter}%
-  \renewcommand{\thefigure}{\ifnum\value{chapter}>\z@\thechapter.\fi\arabic{figure}}%
-  \renewcommand{\thetable}{\ifnum\value{chapter}>\z@\thechapter.\fi\arabic{table}}}
+  \renewcommand{\thefigure}{\iffivebarbarenumbers\else\ifnum\value{chapter}>\z@\thechapter.\fi\fi%
+    \arabic{figure}}%
+  \renewcommand{\thetable}{\iffivebarbarenumbers\else\ifnum\value{chapter}>\z@\thechapter.\fi\fi%
+    \arabic{table}}}
 \makeatother
 % the bibliography is the chapter "References"
 \addto\captionsenglish{\renewcommand{\bibname}{References}}

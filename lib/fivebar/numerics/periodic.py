@@ -229,6 +229,7 @@ def modal_period_map(system: ModalSystem, harmonics: "list[Harmonic] | tuple" = 
 
         \ddot\eta_r + 2\zeta_r\omega_r\dot\eta_r + \omega_r^2\eta_r + \sum_s\alpha_{rs}\eta_s
         + \sum_{j,s}P^{(j)}_{rs}\cos(p\,\Omega^P_j t + \varphi_j)\,\eta_s
+        \\
         - \sum_{s,t}\delta_{rst}\eta_s\eta_t - \sum_{s,t,u}\gamma_{rstu}\eta_s\eta_t\eta_u
         = \sum_j F_{rj}\cos(p\,\Omega_j t + \tau_{rj})
 
