@@ -183,17 +183,19 @@ def _fill_list_of_figures(app: Sphinx, doctree: nodes.document, docname: str) ->
 def _caption_with_errata(app: Sphinx, docname: str, caption: str) -> nodes.paragraph:
     """A figure's caption for the list, its erratum mentions (E3) linked to their rows as in
     the caption itself (the caption's text is taken from the figure's page, without its links)."""
+    from fivebar_book import _MENTION, erratum_label  # (the mention and label the errata pages use)
+
     labels = app.env.get_domain("std").anonlabels  # (docname, anchor) of the errata's rows
     para = nodes.paragraph()
     last = 0
-    for m in re.finditer(r"\bE(\d+)\b", caption):
-        target = labels.get(f"erratum-e{m.group(1)}")
+    for m in _MENTION.finditer(caption):
+        target = labels.get(erratum_label(m.group(1)))
         if target is None:
             continue
         para += nodes.Text(caption[last:m.start()])
         ref = nodes.reference("", "", internal=True,
                               refuri=app.builder.get_relative_uri(docname, target[0]) + "#" + target[1])
-        ref += nodes.Text(m.group(0))
+        ref += nodes.Text(m.group(1))
         para += ref
         last = m.end()
     para += nodes.Text(caption[last:])
