@@ -50,6 +50,21 @@ def developer_output(text: str) -> list[str]:
     return out
 
 
+#: built pages whose text may name the tests: the maintainers' map of the library, and the
+#: errata, whose "Verified by" fields name the checks of each correction
+TEST_NAMES_ALLOWED = ("book/library", "book/errata")
+
+
+def built_page_problems(text: str, doc: str) -> list[str]:
+    """The developer output in the text a reader sees of the built page ``doc`` (its path in
+    the book without suffix, "book/09_figure6"): :func:`developer_output`, less the names of the
+    tests on the pages of :data:`TEST_NAMES_ALLOWED`."""
+    found = developer_output(text)
+    if doc in TEST_NAMES_ALLOWED:
+        found = [f for f in found if not f.startswith("the file name of a test")]
+    return found
+
+
 def bare_values(outputs: list[str]) -> list[str]:
     """Cell outputs that are only a Python value (True, False, None, a number): the value an
     expression left at the end of a cell, not something the reader is meant to see."""

@@ -40,8 +40,10 @@ def _shown(output: dict, priority: tuple[str, ...]) -> tuple[str, str] | None:
     """(mime, text) of what a builder shows of a display output (None: an image or nothing)."""
     data = output.get("data", {})
     for mime in priority:
-        if mime in data:
-            return mime, "".join(data[mime]) if isinstance(data[mime], list) else str(data[mime])
+        text = data.get(mime)
+        text = "".join(text) if isinstance(text, list) else text
+        if text:  # an empty one is passed over (myst-nb shows the next: an empty Markdown's repr)
+            return mime, str(text)
     return None
 
 
@@ -139,11 +141,13 @@ def test_the_bare_value_and_stderr_checks_find_them() -> None:
     planted = {"cells": [{"cell_type": "code", "metadata": {"tags": ["remove-input"]}, "outputs": [
         {"output_type": "execute_result", "data": {"text/plain": "True"}},
         {"output_type": "stream", "name": "stderr", "text": "a warning"},
-        {"output_type": "display_data", "data": {"text/html": "<iframe>", "text/plain": "<IPython.core.display.HTML object>"}}]}]}
+        {"output_type": "display_data", "data": {"text/html": "<iframe>", "text/plain": "<IPython.core.display.HTML object>"}},
+        {"output_type": "display_data", "data": {"text/markdown": "", "text/plain": "<IPython.core.display.Markdown object>"}}]}]}
     html = _visible_outputs(planted, HTML_PRIORITY)
     pdf = _visible_outputs(planted, LATEX_PRIORITY)
     assert bare_values([html[0][2]]) and html[1][1] == "stderr" and html[2][1] == "text/html"
     assert developer_output(pdf[2][2])  # the PDF would print the HTML object's repr
+    assert developer_output(html[3][2]) and developer_output(pdf[3][2])  # an empty Markdown: its repr
 
 
 # --------------------------------------------------------------------------------------------
@@ -245,3 +249,17 @@ def test_the_paper_equations_are_shown_as_P() -> None:
 
     assert fa.mark_paper_equations("(2.7), (A.9)-(A.12) and (3.6)–(3.7); f(1.5), (0.5, 0.25), (3.9), (8.3)") == \
         "(P2.7), (PA.9)-(PA.12) and (P3.6)–(P3.7); f(1.5), (0.5, 0.25), (3.9), (8.3)"
+
+
+def test_the_built_page_check_finds_developer_output() -> None:
+    """The rule of the built HTML and PDF (test_browser.py, test_pdf.py): a repr or a path is
+    found on any page; a test's name only outside the errata and the maintainers' map."""
+    from book_checks import built_page_problems
+
+    assert built_page_problems("phases phi10 = 0 rad <IPython.core.display.Markdown object> 4.1 Speeds",
+                               "book/04_electromagnetics")
+    assert built_page_problems("DEFAULT_PARAMS_PATH = PosixPath('/tmp/ci4/lib/fivebar/data/wang2011.toml')", "book/api")
+    verified = "Verified by: tests/test_elements.py::test_every_interpolation_condition_holds"
+    assert built_page_problems(verified, "book/09_figure6")
+    assert not built_page_problems(verified, "book/errata") and not built_page_problems(verified, "book/library")
+    assert built_page_problems("/work/wt/lib/fivebar/figure6.py:145: ValidityWarning", "book/errata")

@@ -40,6 +40,7 @@ from pathlib import Path
 
 import pytest
 from book_build import make, unavailable
+from book_checks import built_page_problems
 
 ROOT = Path(__file__).resolve().parents[1]
 HTML = ROOT / "_build" / "html"
@@ -171,6 +172,24 @@ def _extension():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def test_no_developer_output_on_the_built_pages(book):
+    """The text of every built page (its article: what a reader sees, scripts and styles left out)
+    shows no developer output (tests/book_checks.py: paths, reprs of display objects, warnings'
+    file and line, progress bars, test files, issue numbers), as built, whatever the stored
+    notebooks held and however myst-nb chose among an output's formats."""
+    from bs4 import BeautifulSoup
+
+    problems = []
+    for page in _pages(book):
+        doc = page.relative_to(book).with_suffix("").as_posix()
+        soup = BeautifulSoup(page.read_text(encoding="utf-8"), "html.parser")
+        main = soup.find("article") or soup.body or soup
+        for tag in main(["script", "style"]):
+            tag.decompose()
+        problems += [f"{doc}.html: {p}" for p in built_page_problems(main.get_text(" "), doc)]
+    assert not problems, "developer output on the built pages:\n" + "\n".join(problems[:40])
 
 
 @pytest.mark.parametrize(

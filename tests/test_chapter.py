@@ -126,7 +126,8 @@ def test_a_chapter_of_the_fourbar_names_and_leaves_out_the_five_bars_entries(tmp
 
 def test_the_applicability_note_is_empty_until_a_study_does_not_apply():
     note = chapter.Applicability()
-    assert note.markdown() == "" and "The check" not in note
+    assert note.markdown() == chapter.Applicability.EMPTY and "The check" not in note
+    assert note.EMPTY.startswith("<!--") and note.EMPTY.rstrip().endswith("-->")  # shown by no reader
     note.add("The check", "does not apply: no orbit at 600 r/min.", "Give a lower speed.")
     note.ignored({"geometry.L2": "not a number of the four-bar"})
     md = note.markdown()

@@ -29,6 +29,7 @@ import pytest
 import yaml
 
 from book_build import make, unavailable
+from book_checks import built_page_problems
 
 ROOT = Path(__file__).resolve().parents[1]
 PDF = ROOT / "_build" / "pdf" / "fivebar.pdf"
@@ -357,3 +358,16 @@ def test_nothing_runs_past_its_column_or_the_page(pdf: Path) -> None:
             if float(m.group(1)) > OVERFULL_PT]
     assert not wide, f"{len(wide)} line(s) past the text width: " + "; ".join(
         f"{w:.0f} pt {where}: {snippet!r}" for w, where, snippet in wide[:8])
+
+
+def test_no_developer_output_in_the_pdf(reader, pages_text: list[str]) -> None:
+    """No page of the PDF shows developer output (tests/book_checks.py), each page checked with
+    the rules of the chapter it belongs to (the errata and the maintainers' map may name tests)."""
+    starts = sorted((page, path) for (_, title, path) in _chapters()
+                    for t, page in _chapter_pages(reader, pages_text).items() if t == title)
+    problems = []
+    for i, text in enumerate(pages_text):
+        owner = [path for page, path in starts if page <= i]
+        doc = owner[-1].relative_to(ROOT).with_suffix("").as_posix() if owner else "front matter"
+        problems += [f"page {i + 1} ({doc}): {p}" for p in built_page_problems(text, doc)]
+    assert not problems, "developer output in the PDF:\n" + "\n".join(problems[:40])

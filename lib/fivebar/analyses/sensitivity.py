@@ -61,6 +61,8 @@ __all__ = ["SCALAR_OUTPUTS", "RANGES_PATH", "MidpointPeakToPeak", "MorrisResult"
            "load_ranges", "morris", "morris_indices", "output", "sobol", "sobol_indices", "spread", "unit_sample"]
 
 #: The plausible ranges shipped with the package (``fivebar/data/uncertainty.toml``).
+#:
+#: :meta hide-value:
 RANGES_PATH = Path(str(resources.files("fivebar") / "data" / "uncertainty.toml"))
 
 

@@ -69,7 +69,7 @@ class SteadyStateError(FivebarError, RuntimeError):
 #: The small-deflection range of the beam model: the midpoint deflection of a link relative to
 #: its chord, divided by the link's length.  At 0.1 the linear (small-deflection) estimate of a
 #: cantilever's tip deflection under a tip load is 1 % above the exact elastica (Bisshopp and
-#: Drucker, Quart. Appl. Math. 3 (1945) 272-275; ``tests/test_validity.py`` solves the elastica),
+#: Drucker, Quart. Appl. Math. 3 (1945) 272-275; a test of the library solves the elastica),
 #: and the error grows as the square of the deflection (4 % at 0.2).
 DEFLECTION_LIMIT = 0.1
 #: An estimated discretisation error (S against 2 S) above this is reported in the note.

@@ -142,10 +142,15 @@ class Applicability:
     def __contains__(self, study: object) -> bool:
         return any(study == s for s, _, _ in self.items)
 
+    #: the note while every study applies: an HTML comment, which every reader of the output
+    #: (Jupyter, the HTML book, the PDF) leaves out.  Not "": myst-nb passes over an empty
+    #: Markdown output to its plain-text repr, which the page would show.
+    EMPTY = "<!-- every study of this chapter applies with these parameters -->\n"
+
     def markdown(self) -> str:
-        """The note as MyST Markdown ("" when every study applies)."""
+        """The note as MyST Markdown (:attr:`EMPTY` when every study applies)."""
         if not self.items:
-            return ""
+            return self.EMPTY
         lines = [self.TITLE, ":class: note", ""]
         lines += [f"* **{study}** {why}" + (f"  {change}" if change else "") for study, why, change in self.items]
         return "\n".join(lines + [":::"]) + "\n"

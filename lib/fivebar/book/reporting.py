@@ -47,6 +47,8 @@ __all__ = [
 ]
 
 #: The errata file shipped with the project.
+#:
+#: :meta hide-value:
 ERRATA_PATH = Path(str(resources.files("fivebar") / "data" / "errata.toml"))
 
 #: Field of an ``[[erratum]]`` entry -> column of :func:`errata_table`.

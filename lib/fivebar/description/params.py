@@ -36,16 +36,24 @@ __all__ = ["Motor", "Motors", "Params", "load_params", "file_entries", "unused_e
 
 #: The parameter file shipped with the package (``fivebar/data/wang2011.toml``, package data
 #: read through ``importlib.resources``; ``data/wang2011.toml`` of the repository links to it).
+#:
+#: :meta hide-value:
 DEFAULT_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "wang2011.toml"))
 #: A four-bar crank-rocker's description, to layer over the defaults:
 #: ``load_params([DEFAULT_PARAMS_PATH, FOURBAR_PARAMS_PATH])`` (``fivebar/data/fourbar.toml``).
+#:
+#: :meta hide-value:
 FOURBAR_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "fourbar.toml"))
 #: The flexible slider-crank of Simeon's benchmark (the IVP test set's problem "crank"), to layer
 #: over the defaults: ``load_params([DEFAULT_PARAMS_PATH, SLIDER_CRANK_PARAMS_PATH])``
 #: (``fivebar/data/slider_crank.toml``).
+#:
+#: :meta hide-value:
 SLIDER_CRANK_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "slider_crank.toml"))
 #: A Watt six-bar (two four-bars in series through a bell crank), to layer over the defaults:
 #: ``load_params([DEFAULT_PARAMS_PATH, SIXBAR_PARAMS_PATH])`` (``fivebar/data/sixbar.toml``).
+#:
+#: :meta hide-value:
 SIXBAR_PARAMS_PATH = Path(str(resources.files("fivebar") / "data" / "sixbar.toml"))
 
 

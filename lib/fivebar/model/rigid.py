@@ -41,7 +41,7 @@ shaft (a crank without a motor has none).  Gravity (``params.gravity``, an assum
 default) acts along :math:`-y`.
 
 The links' part of :math:`\mathbf M` equals the consistent finite-element mass of
-:mod:`fivebar.model.assembly` projected on the rigid-body velocity fields (tests/test_rigid.py).  The
+:mod:`fivebar.model.assembly` projected on the rigid-body velocity fields (checked by the library's tests).  The
 rotors differ: the torsion shape functions of the motor element (A.3) vanish at the rotor, so
 :math:`J_0` drives no elastic DOF there, while here it turns with its crank and resists every
 change of crank speed.  At constant crank speed it does no work and drops out of the torques.

@@ -25,7 +25,8 @@ the term :math:`\mathbf M_p\ddot{\mathbf p}` brings :math:`2\boldsymbol\Phi_r^\t
 \dot{\boldsymbol\eta} + \boldsymbol\Phi_r^\top\mathbf M_p\ddot{\boldsymbol\Phi}_r\boldsymbol\eta`, which they
 would balance): the model holds for a servo whose bandwidth is well above the crank frequency.
 With a slower servo it can be unstable where the rigid Lagrange dynamics under the same servo are
-stable (tests/test_control.py: 120 r/min, a 0.78 Hz servo, multiplier about 6 against 0.2).
+stable (at 120 r/min with a 0.78 Hz servo, a largest multiplier of about 6 against 0.2; one of the
+library's tests).
 """
 
 from __future__ import annotations
