@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 __all__ = ["COMPLEX", "ComputationError", "FivebarError", "InputError", "InputTypeError", "ParameterError", "RANGES",
            "ResourceError", "ValidityWarning", "array", "available_memory", "checked", "checker", "choice", "flag",
-           "memory", "number", "plain"]
+           "memory", "number", "plain", "read_toml"]
 
 
 class FivebarError(Exception):
@@ -67,6 +67,26 @@ class ValidityWarning(UserWarning):
 
 
 # --- validation: one helper for every argument of the library --------------------------------
+def read_toml(path: Any, what: str, error: type[FivebarError] = InputError) -> dict[str, Any]:
+    """The TOML document at ``path``, the library's one reader of its data files (parameter
+    files, ranges, errata): a missing file, one that cannot be read, invalid TOML or text that
+    is not UTF-8 raises ``error``, naming ``what`` ("parameter file path", ...) and the path."""
+    import tomllib
+
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise error(f"{what} = {str(path)!r} does not exist") from None
+    except OSError as exc:  # a directory, no permission, ...
+        raise error(f"{what} = {str(path)!r} cannot be read: {exc.strerror or exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{what} = {str(path)!r} is not valid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise error(f"{what} = {str(path)!r} is not valid UTF-8 (a TOML file is UTF-8 text): "
+                    f"byte {exc.object[exc.start:exc.start + 1]!r} at offset {exc.start}") from None
+
+
 def _text(x: float) -> str:
     return f"{x:g}" if isinstance(x, float) else str(x)
 

@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import math
-import tomllib
 import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -51,7 +50,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from tqdm import tqdm
 
-from ..errors import FivebarError, InputError, number, plain
+from ..errors import FivebarError, InputError, number, plain, read_toml
 from ..numerics.newmark import _blas_threads
 from ..description.params import Params, load_params
 from ..description.setup import Setup, as_setup
@@ -175,13 +174,7 @@ def load_ranges(path: str | Path | None = None, params: Params | None = None) ->
     :class:`SensitivityError` naming it.
     """
     p = Path(RANGES_PATH if path is None else path)
-    try:
-        with open(p, "rb") as fh:
-            doc = tomllib.load(fh)
-    except FileNotFoundError:
-        raise SensitivityError(f"ranges file path = {str(p)!r} does not exist") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SensitivityError(f"ranges file path = {str(p)!r} is not valid TOML: {exc}") from None
+    doc = read_toml(p, "ranges file path", SensitivityError)
     entries = doc.get("input")
     if not isinstance(entries, list) or not entries or set(doc) != {"input"}:
         raise SensitivityError(f"ranges file {str(p)!r} must hold one or more [[input]] tables and nothing else "

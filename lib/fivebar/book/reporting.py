@@ -16,14 +16,13 @@ No equation of the paper is implemented here.
 from __future__ import annotations
 
 import math
-import tomllib
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from ..errors import FivebarError, InputError
+from ..errors import FivebarError, InputError, read_toml
 from ..description.params import DEFAULT_PARAMS_PATH, Params, load_params
 
 __all__ = [
@@ -108,13 +107,7 @@ def errata_table(path: str | Path | None = None, math: bool = False) -> pd.DataF
         entries share an id.
     """
     path = Path(ERRATA_PATH if path is None else path)
-    try:
-        with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ReportError(f"errata file {str(path)!r} does not exist") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ReportError(f"errata file {str(path)!r} is not valid TOML: {exc}") from None
+    doc = read_toml(path, "errata file path", ReportError)
     entries = doc.get("erratum")
     if not isinstance(entries, list) or not entries:
         raise ReportError(f"errata file {str(path)!r} has no [[erratum]] entries")

@@ -19,7 +19,6 @@ from __future__ import annotations
 import difflib
 import math
 import re
-import tomllib
 import warnings
 from importlib import resources
 from collections.abc import Iterable, Mapping
@@ -28,7 +27,7 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
-from ..errors import FivebarError, ParameterError, ValidityWarning, plain
+from ..errors import FivebarError, ParameterError, ValidityWarning, plain, read_toml
 from .linkage import Linkage, Material, Section, linkage_from_toml
 
 __all__ = ["Motor", "Motors", "Params", "load_params", "file_entries", "unused_entry", "DEFAULT_PARAMS_PATH",
@@ -496,12 +495,7 @@ def file_entries(path: str | Path) -> dict[str, Any]:
     """The entries of one parameter file as :func:`load_params` layers them: dotted key -> value
     (the ``value`` of a table entry), and ``"linkage"`` -> its ``[linkage]`` table if it has one.
     Unknown keys are refused as there (:class:`~fivebar.errors.ParameterError`)."""
-    try:
-        with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
-    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ParameterError(f"parameter file path = {str(path)!r} cannot be read: {exc}") from None
-    return _flatten(doc, str(path))[0]
+    return _flatten(read_toml(path, "parameter file path", ParameterError), str(path))[0]
 
 
 def unused_entry(params: "Params", key: str, book: "Params | None" = None) -> str:
@@ -718,19 +712,7 @@ def load_params(
     meta: dict[str, dict] = {}
     layers = []
     for p in paths:
-        try:
-            with open(p, "rb") as fh:
-                doc = tomllib.load(fh)
-        except FileNotFoundError:
-            raise ParameterError(f"parameter file path = {str(p)!r} does not exist") from None
-        except OSError as exc:  # a directory, no permission, ...
-            raise ParameterError(f"parameter file path = {str(p)!r} cannot be read: "
-                                 f"{exc.strerror or exc}") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise ParameterError(f"parameter file path = {str(p)!r} is not valid TOML: {exc}") from None
-        except UnicodeDecodeError as exc:
-            raise ParameterError(f"parameter file path = {str(p)!r} is not valid UTF-8 (a TOML file is UTF-8 text): "
-                                 f"byte {exc.object[exc.start:exc.start + 1]!r} at offset {exc.start}") from None
+        doc = read_toml(p, "parameter file path", ParameterError)
         layers.append(_flatten(doc, str(p)))
     for v, m in layers:
         values.update(v)
