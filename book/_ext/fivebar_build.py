@@ -417,19 +417,25 @@ def seed_cache(cache_path: Path = CACHE) -> list[str]:
     the book builds that follow (the PDFs, the HTML book, the student edition) read them from
     the cache instead of executing every notebook a second time.  nbval's run has also
     written the files that running a notebook writes (``book/_generated/anim``).  A
-    notebook already in the cache (same code cells) is left as it is; one edited later no
-    longer matches its entry and ``make book`` executes it.  Returns the notebooks added.
+    notebook already in the cache (same code cells) with the same outputs is left as it is;
+    one whose stored outputs changed (re-executed, or mended, its code the same) is cached
+    again, else the builds would show the old outputs; one edited later no longer matches its
+    entry and ``make book`` executes it.  Returns the notebooks added.
     """
     import nbformat
     from jupyter_cache import get_cache
+
+    def outputs(notebook) -> list:
+        return [c.get("outputs", []) for c in notebook.cells if c.cell_type == "code"]
 
     cache = get_cache(str(cache_path))
     added = []
     for nb_path in sorted((ROOT / "book").glob("*.ipynb")):
         nb = nbformat.read(nb_path, as_version=4)
         try:
-            cache.match_cache_notebook(nb)
-            continue
+            record = cache.match_cache_notebook(nb)
+            if outputs(cache.get_cache_bundle(record.pk).nb) == outputs(nb):
+                continue
         except KeyError:
             pass
         cache.cache_notebook_file(str(nb_path), check_validity=False, overwrite=True)
