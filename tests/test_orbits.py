@@ -126,3 +126,28 @@ def test_the_problem_object(setup):
     assert prob.at(0.03).params.damping_ratio == 0.03 and prob.at(0.03).crank_speed_rpm == 30
     with pytest.raises(FivebarError, match="p_end"):
         prob.given("p_end", -1.0)
+
+
+def test_one_shooting_loop_serves_the_generic_and_the_linkage_shooting(setup, monkeypatch):
+    """``numerics.periodic.shoot`` (any period map) and ``analyses.steady.shooting`` (the linkage)
+    both run ``numerics.periodic.newton_periodic``: the one loop of Newton's method on
+    periodicity.  Their orbits agree (the linkage's period map, shot by the generic)."""
+    from fivebar.analyses import steady
+    from fivebar.numerics import periodic
+
+    calls = []
+    loop = periodic.newton_periodic
+
+    def recorded(*args, **kwargs):
+        calls.append(kwargs.get("newton", "chord"))
+        return loop(*args, **kwargs)
+
+    monkeypatch.setattr(periodic, "newton_periodic", recorded)
+    monkeypatch.setattr(steady, "newton_periodic", recorded)
+    st = steady.shooting(setup)
+    assert calls == ["chord"]
+    f = orbits.linkage_period_map(setup)
+    x = f.state(st)
+    orb = periodic.shoot(f, 1.01 * x, 30.0, scale=np.full(x.size, np.abs(x).max()))
+    assert calls == ["chord", "full"]
+    assert np.abs(orb.x - x).max() <= 1e-8 * np.abs(x).max()
