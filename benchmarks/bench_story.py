@@ -185,8 +185,8 @@ def exudyn_cost(quick, repeats):
         return max(float(np.abs(c[L] - ref[L]).max() / np.ptp(ref[L])) for L in ref)
 
     def run(rpm, mesh, steps, ramp, tol):
-        return multibody_steady_state(p, crank_speed_rpm=rpm, steps_per_period=steps, samples=samples,
-                                      elements_per_link=mesh, tol=tol, ramp_periods=ramp)
+        return multibody_steady_state(Setup(p, crank_speed_rpm=rpm, steps_per_period=samples, elements_per_link=mesh),
+                                      integration_steps=steps, tol=tol, ramp_periods=ramp)
 
     ladder = sorted(((m, s, r) for m in EXUDYN_MESHES for s in EXUDYN_STEPS for r in EXUDYN_RUNUPS),
                     key=lambda x: (sum(x[0]) * x[1] * (x[2][0] + 2), EXUDYN_RUNUPS.index(x[2])))

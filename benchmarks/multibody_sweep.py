@@ -20,6 +20,7 @@ with the wall-clock seconds of each.
 from __future__ import annotations
 
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -56,7 +57,9 @@ def ked(params, rpm, nonlinear, steps=S_LIB, **replace):
 def exudyn(params, rpm, mesh, steps):
     t = time.perf_counter()
     try:
-        res = multibody.multibody_steady_state(params, rpm, steps_per_period=steps, elements_per_link=mesh, tol=1e-3)
+        res = multibody.multibody_steady_state(
+            fivebar.Setup(params, crank_speed_rpm=rpm, steps_per_period=math.gcd(steps, params.steps_per_period),
+                          elements_per_link=mesh), integration_steps=steps, tol=1e-3)
     except Exception as err:
         return {"error": f"{type(err).__name__}: {err}"[:300], "seconds": time.perf_counter() - t}
     return {**p2p(res), "seconds": time.perf_counter() - t, "periods": res.periods,

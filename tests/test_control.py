@@ -68,6 +68,26 @@ def test_clamped_rotors_give_the_prescribed_motion_frequencies(th):
     assert f_free[0] > 1.2 * linkage[0]  # freeing the rotors stiffens the first mode
 
 
+def test_the_mesh_is_the_set_ups():
+    """The control model takes its mesh from the set-up (issue 31, point 5): with the rotors
+    clamped, a finer mesh's frequencies are natural_frequencies of the same set-up's mesh, and
+    the paper's mesh (a Params) differs from them; a mesh given beside the set-up is refused."""
+    fine = Setup(P, elements_per_link=(2, 4, 4, 2))
+    th = (0.4, 1.3)
+    f_fine = control_modal_model(fine, *th, n_modes=4, rotor_inertia_scale=1e9).frequencies
+    whirl = [np.sqrt(K[0, 0] / M[0, 0]) / (2 * np.pi) for M, K in (motor_element(P.motors["motor1"]), motor_element(P.motors["motor2"]))]
+    f_tied = natural_frequencies(fine, *th, n_modes=10)
+    ref = np.array([f for f in f_tied if min(abs(f / w - 1) for w in whirl) > 1e-9])[:4]
+    assert np.allclose(f_fine, ref, rtol=1e-7)
+    assert not np.allclose(control_modal_model(P, *th, n_modes=4, rotor_inertia_scale=1e9).frequencies, ref, rtol=1e-7)
+    along = np.sort_complex(models_along_cycle(fine, [0.0], n_modes=4)[0].poles())
+    at0 = (P.theta1_0, P.theta4_0)  # the cycle's first configuration
+    assert np.allclose(along, np.sort_complex(linear_model(fine, *at0, n_modes=4).poles()), rtol=1e-9)
+    assert not np.allclose(along, np.sort_complex(linear_model(P, *at0, n_modes=4).poles()), rtol=1e-7)
+    with pytest.raises(ValueError, match="elements_per_link=.*is a field of the problem"):
+        control_modal_model(P, *th, elements_per_link=(2, 4, 4, 2))
+
+
 def test_clamped_rotors_recover_the_prescribed_motion_equation():
     """Removing the rotor angles leaves exactly the linkage subsystem of (2.7):
     same M, K and inertial load -M u_r'' as fivebar.model.dynamics.LinkageDynamics."""

@@ -216,7 +216,7 @@ def test_four_bar_frozen_frequencies_against_the_multibody_model():
 
     same = FOUR.replace(rotary_inertia=0)  # ANCF cables carry no rotary inertia
     for theta in (0.0, 2.0, 4.5):
-        f_mb = multibody.multibody_frequencies(FOUR, theta, n_modes=3, elements_per_link=(4, 8, 8))
+        f_mb = multibody.multibody_frequencies(Setup(FOUR, elements_per_link=(4, 8, 8)), theta, n_modes=3)
         f = fivebar.natural_frequencies(Setup(same, elements_per_link=(4, 8, 8)), theta, n_modes=3)
         assert np.allclose(f, f_mb, rtol=1e-4), (theta, f, f_mb)
 
@@ -228,7 +228,7 @@ def test_four_bar_steady_response_against_the_multibody_model():
     pytest.importorskip("exudyn")
     from fivebar.analyses import multibody
 
-    mb = multibody.multibody_steady_state(FOUR, 600, steps_per_period=400, samples=100)
+    mb = multibody.multibody_steady_state(Setup(FOUR, crank_speed_rpm=600, steps_per_period=100), integration_steps=400)
     ked = fivebar.steady_state(Setup(FOUR, crank_speed_rpm=600, steps_per_period=400, elements_per_link=(2, 4, 4)))
     for link in ("coupler", "rocker"):
         for d in ("transverse", "chord"):

@@ -27,7 +27,7 @@ def params():
 @pytest.mark.parametrize("angles", [(0.0, 0.0), (1.1, 4.0)])
 def test_frozen_frequencies_match_library(params, depth, angles):
     p = params.replace(bending_depth=depth)
-    f = fivebar.multibody_frequencies(p, *angles, n_modes=6, elements_per_link=MESH)
+    f = fivebar.multibody_frequencies(Setup(p, elements_per_link=MESH), *angles, n_modes=6)
     # same physics (no rotary inertia in an ANCF cable), same mesh
     ref = fivebar.natural_frequencies(fivebar.Setup(p.replace(rotary_inertia=0), motors=False, elements_per_link=MESH),
                                       *angles, n_modes=6)
@@ -38,9 +38,9 @@ def test_frozen_frequencies_match_library(params, depth, angles):
 
 
 def test_damping_matches_modal_ratio_on_lowest_mode(params):
-    f = fivebar.multibody_frequencies(params, 0.0, 0.0, n_modes=2, elements_per_link=MESH)
+    f = fivebar.multibody_frequencies(Setup(params, elements_per_link=MESH), 0.0, 0.0, n_modes=2)
     beta = 2 * params.damping_ratio / (2 * np.pi * f[0])
-    fd, zeta = multibody.damping_ratios(params, 0.0, 0.0, beta, n=2, elements_per_link=MESH)
+    fd, zeta = multibody.damping_ratios(Setup(params, elements_per_link=MESH), 0.0, 0.0, beta, n=2)
     assert zeta[0] == pytest.approx(params.damping_ratio, rel=1e-3)
     # Kelvin-Voigt: zeta_k = beta omega_k / 2
     assert zeta[1] == pytest.approx(params.damping_ratio * f[1] / f[0], rel=1e-2)
@@ -49,7 +49,7 @@ def test_damping_matches_modal_ratio_on_lowest_mode(params):
 @pytest.mark.parametrize("gravity", [0.0, 9.81])
 def test_slow_steady_state_matches_ked(params, gravity):
     params = params.replace(gravity=gravity, steps_per_period=200)
-    mb = fivebar.multibody_steady_state(params, 60.0, steps_per_period=200, elements_per_link=MESH)
+    mb = fivebar.multibody_steady_state(Setup(params, crank_speed_rpm=60.0, elements_per_link=MESH), integration_steps=200)
     ked = fivebar.steady_state(Setup(params, crank_speed_rpm=60.0, motors=False, nonlinear=False,
                                      elements_per_link=MESH, scheme=fivebar.GeneralizedAlpha(0.8)))
     assert mb.periodicity_error < 1e-3
@@ -64,9 +64,13 @@ def test_slow_steady_state_matches_ked(params, gravity):
 
 def test_bad_input_is_named(params):
     with pytest.raises(ValueError, match="elements_per_link"):
-        fivebar.multibody_frequencies(params, 0.0, 0.0, elements_per_link=(1, 3, 2, 1))
-    with pytest.raises(ValueError, match="steps_per_period"):
-        fivebar.multibody_steady_state(params, steps_per_period=250, samples=100)
+        fivebar.multibody_frequencies(Setup(params, elements_per_link=(1, 3, 2, 1)), 0.0, 0.0)
+    with pytest.raises(ValueError, match="integration_steps = 250 .*S = 100"):
+        fivebar.multibody_steady_state(Setup(params, steps_per_period=100), integration_steps=250)
+    with pytest.raises(ValueError, match="elements_per_link=.*is a field of the problem"):
+        fivebar.multibody_frequencies(params, 0.0, 0.0, elements_per_link=MESH)
+    with pytest.raises(ValueError, match="steps_per_period=.*is a field of the problem"):
+        fivebar.multibody_steady_state(params, steps_per_period=400)
     with pytest.raises(ValueError, match="n_modes = 0"):
         fivebar.multibody_frequencies(params, 0.0, 0.0, n_modes=0)
 

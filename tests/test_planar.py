@@ -320,7 +320,7 @@ def test_frozen_frequencies_against_the_multibody_model(theta):
     pytest.importorskip("exudyn")
     from fivebar.analyses import multibody
 
-    f_mb = multibody.multibody_frequencies(SLIDER, theta, n_modes=3, elements_per_link=(0, 16))
+    f_mb = multibody.multibody_frequencies(Setup(SLIDER, elements_per_link=(0, 16)), theta, n_modes=3)
     f = fivebar.natural_frequencies(Setup(SLIDER, elements_per_link=(0, 16)), theta, n_modes=3)
     assert np.allclose(f, f_mb, rtol=2e-4), (f, f_mb)
 
@@ -346,7 +346,7 @@ def test_steady_response_against_the_multibody_model():
     from fivebar.analyses import multibody
 
     p = SLIDER.replace(damping_model="stiffness")
-    mb = multibody.multibody_steady_state(p, steps_per_period=400, samples=100, elements_per_link=(0, 8))
+    mb = multibody.multibody_steady_state(Setup(p, steps_per_period=100, elements_per_link=(0, 8)), integration_steps=400)
     ked = fivebar.steady_state(Setup(p, steps_per_period=400, elements_per_link=(0, 8)))
     y, y_mb = ked.midpoint_mm("rod")[::4], mb.midpoint_mm("rod")
     assert np.ptp(y) > 2.0

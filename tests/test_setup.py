@@ -163,6 +163,8 @@ def _analyses():
     """(name, function, the arguments after the problem) of every analysis of the linkage."""
     from fivebar.analyses import branches, figure6, linkage_multiscale as lm, modal, resonance, response, steady, sweep
     from fivebar.book import plotting
+    from fivebar.analyses import multibody
+    from fivebar.analyses.control import control_design, control_model
     from fivebar.analyses.control.control_simulation import closed_loop_multipliers, simulate_cycle
 
     return [
@@ -187,6 +189,16 @@ def _analyses():
         ("frequencies_along_cycle", modal.frequencies_along_cycle, ([0.0],)),
         ("mean_frequencies", modal.mean_frequencies, ()),
         ("averaged_matrix_modes", modal.averaged_matrix_modes, ()),
+        # the multibody model and the control analysis take the problem too (issue 31, point 5)
+        ("multibody_steady_state", multibody.multibody_steady_state, ()),
+        ("multibody_frequencies", multibody.multibody_frequencies, (0.0, 0.0)),
+        ("damping_ratios", multibody.damping_ratios, (0.0, 0.0, 1e-4)),
+        ("frozen_system", multibody.frozen_system, (0.0, 0.0)),
+        ("control_modal_model", control_model.control_modal_model, (0.0, 0.0)),
+        ("linear_model", control_model.linear_model, (0.0, 0.0)),
+        ("models_along_cycle", control_model.models_along_cycle, ([0.0],)),
+        ("pd_servo", control_design.pd_servo, (5.0,)),
+        ("damping_schedule", control_design.damping_schedule, (None, [0.0])),
     ]
 
 

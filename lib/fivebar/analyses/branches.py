@@ -4,7 +4,8 @@ The glue between the linkage (:class:`fivebar.description.setup.Setup`, the peri
 :mod:`fivebar.analyses.steady`) and the generic :mod:`fivebar.numerics.periodic` and
 :mod:`fivebar.numerics.continuation`:
 
-* :func:`linkage_period_map`: the period map of (2.7) at a value of a parameter (the crank
+* :func:`linkage_period_map` (of :mod:`fivebar.analyses.orbits`, the periodic-orbit engine,
+  re-exported here): the period map of (2.7) at a value of a parameter (the crank
   speed, or any numeric entry of the parameter file), with its monodromy matrix from the
   integrator's tangent.  The state is the elastic displacement and its derivative in the
   crank angle at crank angle 0, :math:`\mathbf x = (\mathbf u, \mathrm d\mathbf u/\mathrm
@@ -24,15 +25,19 @@ The glue between the linkage (:class:`fivebar.description.setup.Setup`, the peri
   different period-1 orbit, no periodic motion, or a divergence; the generic
   :func:`fivebar.numerics.continuation.settle`).  :func:`explain_steady` gives the same report for a
   solved steady state; ``steady_state(..., explain=True)`` attaches it to its result.
-* :func:`steady_state`: the periodic steady state of one set-up (the shooting or the march of
-  :mod:`fivebar.analyses.steady`), with that report on request.  It lives here, above both the
+* :func:`steady_state`: the periodic steady state of one set-up by a method of the engine
+  (:data:`fivebar.analyses.orbits.ORBIT_METHODS`: shooting, march, harmonic balance), with that
+  report on request.
+
+Every function here takes its method by name from the engine (``method=``), through one
+problem object (:class:`fivebar.analyses.orbits.OrbitProblem`): a new method is a module and
+an entry of the registry, and a method that cannot serve a function is refused there.  It lives here, above both the
   solvers and the report, so that the solvers need nothing of the branches.
 """
 
 from __future__ import annotations
 
 import math
-import threading
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
@@ -45,158 +50,15 @@ from ..numerics.continuation import (Branch, ContinuationError, Jump, continuati
 from ..errors import FivebarError, InputError, ValidityWarning, checked, flag, number
 from ..numerics.newmark import NewtonConvergenceError
 from ..description.params import Params
-from ..model.dynamics import linkage_dynamics
 from ..numerics.periodic import PeriodicOrbit, _one_blas_thread, shoot
 from ..description.setup import Setup, analysis, as_setup
-from .harmonic_balance import harmonic_balance_steady_state
-from .steady import SteadyState, _monodromy_period, _period, _to_tolerance, _warm_start, march, shooting
+from .orbits import _SPEED, ORBIT_METHODS, LinkagePeriodMap, OrbitProblem, linkage_period_map, orbit_method
+from .steady import SteadyState, _warm_start
 
 __all__ = ["BruteForceDiagram", "LinkageBranch", "LinkagePeriodMap", "SpeedReport", "brute_force_diagram", "describe_speed",
            "explain_steady", "follow", "follow_period_doubling", "linkage_period_map", "steady_state", "STEADY_METHODS"]
 
 Array = NDArray[np.float64]
-
-_SPEED = "crank_speed_rpm"
-
-
-def _setup_at(setup: Setup, parameter: str, value: float) -> Setup:
-    if parameter == _SPEED:
-        return setup.replace(crank_speed_rpm=float(value))
-    return setup.replace(params=setup.params.replace(**{parameter: float(value)}))
-
-
-def _given(setup: Setup, parameter: str, name: str, value: float) -> float:
-    """``value`` of ``parameter``, given by the user as the argument ``name`` (``p_end``,
-    ``p0``, ``value``): refused there, naming that argument, if the set-up cannot take it."""
-    try:
-        _setup_at(setup, parameter, value)
-    except FivebarError as exc:
-        raise InputError(f"{name} = {value!r} is not allowed as a value of {parameter}: {exc}") from None
-    return value
-
-
-def _check_parameter(setup: Setup, parameter: str) -> float:
-    """The parameter's present value; a clear error if it is not a numeric entry."""
-    if not isinstance(parameter, str):
-        raise InputError(f"parameter = {parameter!r} is not allowed: give 'crank_speed_rpm' or a parameter-file key")
-    if parameter == _SPEED:
-        return float(setup.crank_speed_rpm)
-    from ..description.params import _is_open, _resolve_key
-
-    try:  # as Params.replace reads it: a dotted key, or a bare name unique in the set
-        key = _resolve_key(parameter, setup.params.values)
-    except FivebarError as exc:
-        raise InputError(f"parameter = {parameter!r} is not allowed: {exc}") from exc
-    if key not in setup.params.values:
-        raise InputError(f"parameter = {parameter!r} is not allowed: the parameter set has no entry {key}")
-    if _is_open(key) and key not in setup.params.references:
-        raise InputError(f"parameter = {parameter!r} is not allowed: the linkage {setup.params.linkage.name!r} "
-                         f"does not use {key}, so the motion would not change with it")
-    value = setup.params.values[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"parameter = {parameter!r} is not allowed: its value {value!r} is not a number")
-    if parameter in ("crank_speed_rpm", "assumptions.crank_speed_rpm"):
-        raise InputError("give the crank speed as parameter = 'crank_speed_rpm' (the set-up's field)")
-    return float(value)
-
-
-class LinkagePeriodMap:
-    """The linkage's period map in a parameter (a :class:`fivebar.numerics.periodic.PeriodMap`); made by
-    :func:`linkage_period_map`.
-
-    Calling it, ``f(x, p, jacobian)``, integrates one period of the set-up at parameter value
-    ``p`` from the state ``x = (u, du/dtheta)`` at crank angle 0.  Besides: ``f.dynamics(p)``
-    (the set-up and its :class:`~fivebar.model.dynamics.LinkageDynamics` at ``p``, the last four
-    kept), ``f.state(steady)`` (the state of a :class:`~fivebar.analyses.steady.SteadyState`),
-    ``f.steady(x, p)`` (one stored period from ``x``, a ``SteadyState``).
-    """
-
-    periods = 1
-    #: calls at two values may run at once in two threads (the compiled period releases the
-    #: GIL; the dynamics at each value are the map's own): the continuation's forward
-    #: difference in the parameter runs beside the monodromy period
-    concurrent = True
-
-    def __init__(self, setup: Setup, parameter: str) -> None:
-        self.setup, self.parameter = setup, parameter
-        self._dyn: dict[float, Any] = {}
-        self._lock = threading.Lock()
-
-    def dynamics(self, p: float):
-        """The set-up's dynamics at ``p`` (the last four kept here, not in the library's store:
-        the store's if it has them, else built)."""
-        p = float(p)
-        with self._lock:
-            hit = self._dyn.get(p)
-        if hit is None:  # built outside the lock: another thread's value goes on meanwhile
-            try:
-                s = _setup_at(self.setup, self.parameter, p)
-            except FivebarError as exc:  # a value the map was asked for, not one the user gave
-                raise InputError(f"the period map in {self.parameter} cannot be evaluated at {p!r} (a value "
-                                 f"between those given, reached by the computation): {exc}") from None
-            hit = (s, linkage_dynamics(s, keep=False))
-            with self._lock:
-                while len(self._dyn) >= 4:
-                    self._dyn.pop(next(iter(self._dyn)))
-                self._dyn[p] = hit
-        return hit
-
-    def __call__(self, x, p=None, jacobian=False):
-        s, dyn = self.dynamics(self.setup_value() if p is None else p)
-        n = dyn.n
-        W = dyn.params.crank_speed_rad_s
-        x = np.asarray(x, float)
-        u0, v0 = x[:n], W * x[n:]
-        if jacobian:
-            res, Phi = _monodromy_period(dyn, np.r_[u0, v0], s.scheme, store="last")
-            Phi = np.array(Phi)
-            Phi[n:, :] /= W
-            Phi[:, n:] *= W
-        else:
-            res, Phi = _period(dyn, u0, v0, s.scheme, store="last"), None
-        return np.r_[res.u[-1], res.v[-1] / W], Phi
-
-    def setup_value(self) -> float:
-        return _check_parameter(self.setup, self.parameter)
-
-    def __getstate__(self) -> dict:  # a lock is not pickled (a process pool's worker gets a new one)
-        return {k: v for k, v in self.__dict__.items() if k != "_lock"}
-
-    def __setstate__(self, state: dict) -> None:
-        self.__dict__.update(state)
-        self._lock = threading.Lock()
-
-    def state(self, st: SteadyState) -> Array:
-        """The map's state of a steady period (at crank angle 0)."""
-        return np.r_[st.u[0], st.v[0] / st.dynamics.params.crank_speed_rad_s]
-
-    def steady(self, x: Array, p: float) -> SteadyState:
-        """One stored period from the state ``x`` at ``p`` (a :class:`SteadyState`)."""
-        s, dyn = self.dynamics(p)
-        n = dyn.n
-        res = _period(dyn, x[:n], dyn.params.crank_speed_rad_s * x[n:], s.scheme)
-        return SteadyState(dyn, res.t, res.u, res.v, "continuation", 1, scheme=s.scheme)
-
-
-@analysis
-def linkage_period_map(setup: Setup | Params, parameter: str = _SPEED) -> LinkagePeriodMap:
-    """The linkage's period map in ``parameter`` (a :class:`fivebar.numerics.periodic.PeriodMap`).
-
-    ``f = linkage_period_map(fivebar.Setup(params, motors=False))``;
-    ``x_T, Phi = f(x, 120.0, True)`` at 120 r/min, ``x = (u, du/dtheta)`` at crank angle 0
-    (metres, metres per radian), ``Phi`` the monodromy matrix in that state.
-
-    Parameters
-    ----------
-    setup
-        The set-up (its S, scheme, mesh, motors, nonlinearity are used at every value).
-    parameter
-        ``"crank_speed_rpm"`` (the set-up's speed) or a numeric key of the parameter file
-        (``"bending_depth"``, ``"motor1.m0"`` ...: see :meth:`fivebar.description.params.Params.replace`).
-    """
-    s = as_setup(setup)
-    _check_parameter(s, parameter)
-    return LinkagePeriodMap(s, parameter)
 
 
 @dataclass
@@ -212,11 +74,15 @@ class LinkageBranch:
     period_map
         The map it followed (:func:`linkage_period_map`; twice iterated on a period-2 branch).
     parameter : str
+    method : str
+        The method of the engine (:data:`fivebar.analyses.orbits.ORBIT_METHODS`) whose period
+        map was followed ("shooting").
     """
 
     branch: Branch
     period_map: Any
     parameter: str
+    method: str = "shooting"
     _pp: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -384,7 +250,8 @@ class LinkageBranch:
         links = base.setup.params.linkage.link_names
         rows = []
         for S in steps:
-            f = LinkagePeriodMap(base.setup.replace(steps_per_period=int(S)), self.parameter)
+            f = OrbitProblem(base.setup.replace(steps_per_period=int(S)), self.parameter).period_map(self.method,
+                                                                                                     "follow")
             row: dict[str, Any] = {"S": int(S)}
             try:
                 orb = shoot(f, np.asarray(x, float), p, scale=self.branch.scale)
@@ -403,20 +270,21 @@ class LinkageBranch:
         return [b.describe(u) for b in self.bifurcations]
 
 
-def _scan_scale(f: LinkagePeriodMap, p0: float, p_end: float, count: int = 12) -> Array:
+def _scan_scale(prob: OrbitProblem, method: str, p0: float, p_end: float, count: int = 12) -> Array:
     """Scale of the state from the energy norm of :mod:`fivebar.analyses.steady`: the state enters the
     arclength as ``sqrt(K_ii) u_i / E`` and ``Omega sqrt(M_ii) (du/dtheta)_i / E`` (``K, M`` at
     crank angle 0), with ``E`` the largest energy norm ``sqrt(u K u + v M v)`` of the linear
     model's orbits at ``count`` values across the range and ``Omega`` the speed where it
     occurs: a unit of arclength is the size of the largest orbit of the range."""
-    lin = LinkagePeriodMap(f.setup.replace(nonlinear=False), f.parameter)
+    lin = OrbitProblem(prob.setup.replace(nonlinear=False), prob.parameter)
     best = None
     for p in np.linspace(p0, p_end, count):
-        s, dyn = lin.dynamics(p)
+        s = lin.at(float(p))
         try:
-            st = steady_state(s)
+            st = steady_state(s, method=method)
         except FivebarError:
             continue
+        dyn = st.dynamics
         sd = dyn.step_data
         E = float(np.sqrt(np.einsum("ki,ij,kj->k", st.u, sd.K[0], st.u)
                           + np.einsum("ki,ij,kj->k", st.v, sd.M[0], st.v)).max())
@@ -443,6 +311,7 @@ def follow(
     scale: ArrayLike | None = None,
     state_weight: float = 0.03,
     tol: float = 1e-8,
+    method: str = "shooting",
     **kwargs,
 ) -> LinkageBranch:
     """Continue the linkage's periodic steady state in ``parameter`` from ``p0`` to ``p_end``.
@@ -483,6 +352,10 @@ def follow(
         continuation passes folds at any weight (the tangent turns with the branch).
     tol
         Corrector tolerance (scaled residual).
+    method
+        The method of the periodic-orbit engine (:data:`fivebar.analyses.orbits.ORBIT_METHODS`)
+        whose steady state starts the branch and whose period map (with its monodromy matrix)
+        is continued: "shooting"; another is refused, naming those that serve.
     **kwargs
         Passed to :func:`fivebar.numerics.continuation.continuation` (``locate_tol``, ``max_newton`` ...).
 
@@ -490,21 +363,21 @@ def follow(
     because the integrator fails on a period), the branch up to there is returned and its
     ``branch.stop`` says why.
     """
-    s = as_setup(setup)
-    f = linkage_period_map(s, parameter)
-    p0 = f.setup_value() if p0 is None else _given(s, parameter, "p0", float(p0))
+    prob = OrbitProblem(setup, parameter)
+    f = prob.period_map(method, "follow")
+    p0 = prob.value if p0 is None else prob.given("p0", float(p0))
     if not (isinstance(p_end, (int, float)) and math.isfinite(p_end) and p_end != p0):
         raise InputError(f"p_end = {p_end!r} is not allowed: give a finite value other than p0 = {p0!r}")
-    _given(s, parameter, "p_end", float(p_end))
+    prob.given("p_end", float(p_end))
     if isinstance(points, bool) or int(points) != points or points < 2:
         raise InputError(f"points = {points!r} is not allowed: give an integer >= 2")
     if not (isinstance(state_weight, (int, float)) and math.isfinite(state_weight) and state_weight > 0):
         raise InputError(f"state_weight = {state_weight!r} is not allowed: give a positive number")
-    D = (_scan_scale(f, p0, p_end) if scale is None else np.asarray(scale, float)) / state_weight
+    D = (_scan_scale(prob, method, p0, p_end) if scale is None else np.asarray(scale, float)) / state_weight
     step = 1.0 / int(points)
     ds = step if ds is None else ds
     ds_max = 10.0 * step if ds_max is None else ds_max
-    x0 = f.state(steady_state(_setup_at(s, parameter, p0)))
+    x0 = f.state(steady_state(prob.at(p0), method=method))
     try:
         br = continuation(f, x0, p0, float(p_end), ds=min(ds, ds_max), ds_max=ds_max,
                           ds_min=kwargs.pop("ds_min", 1e-3 * step), max_points=int(points), scale=D,
@@ -513,7 +386,7 @@ def follow(
         if exc.branch is None or len(exc.branch.points) < 2:
             raise
         br = exc.branch  # the branch up to the failure; its ``stop`` says why
-    return LinkageBranch(br, f, parameter)
+    return LinkageBranch(br, f, parameter, method)
 
 
 class _Doubled:
@@ -547,7 +420,7 @@ def follow_period_doubling(branch: LinkageBranch, index: int, p_end: float, *, h
     br = switch_period_doubling(f, b, float(p_end), h=h, scale=branch.branch.scale,
                                 p_scale=branch.branch.p_scale, max_points=int(points),
                                 ds=kwargs.pop("ds", 0.5 / points), ds_max=kwargs.pop("ds_max", 2.0 / points), **kwargs)
-    return LinkageBranch(br, _Doubled(f), branch.parameter)
+    return LinkageBranch(br, _Doubled(f), branch.parameter, branch.method)
 
 
 @dataclass
@@ -626,6 +499,7 @@ def brute_force_diagram(
     samples: int = 16,
     link: str | None = None,
     both_ways: bool = True,
+    method: str = "march",
 ) -> BruteForceDiagram:
     """The bifurcation diagram by brute force: march, sample once per period, step the parameter.
 
@@ -634,16 +508,19 @@ def brute_force_diagram(
     quasi-static start of :func:`fivebar.analyses.steady.shooting`'s default, marched from rest), then
     ``samples`` more periods, whose states at crank angle 0 are the Poincaré samples.  A value
     whose march fails restarts the next one from rest.  Independent of the continuation: it
-    uses only the integrator's periods, no Newton on periodicity, no monodromy matrix.
+    uses only the integrator's periods, no Newton on periodicity, no monodromy matrix: the
+    period map of ``method`` ("march", :data:`fivebar.analyses.orbits.ORBIT_METHODS`; another is
+    refused, naming those that serve).
     """
-    s = as_setup(setup)
+    prob = OrbitProblem(setup, parameter)
+    s = prob.setup
     link = _link(s, link)
-    f = linkage_period_map(s, parameter)
+    f = prob.period_map(method, "brute_force")
     vals = np.asarray(values, float).ravel()
     if vals.size < 1 or not np.all(np.isfinite(vals)):
         raise InputError(f"values = {values!r} is not allowed: give finite parameter values")
     for v in vals:
-        _given(s, parameter, "values", float(v))
+        prob.given("values", float(v))
     order = np.r_[vals, vals[::-1]] if both_ways else vals
     dirs = np.array(["up"] * vals.size + (["down"] * vals.size if both_ways else []))
     x = None
@@ -703,7 +580,7 @@ class SpeedReport:
 @analysis
 @_one_blas_thread
 def describe_speed(setup: Setup | Params, value: float | None = None, parameter: str = _SPEED, *,
-                   periods: int = 400, branch: LinkageBranch | None = None) -> SpeedReport:
+                   periods: int = 400, branch: LinkageBranch | None = None, method: str = "shooting") -> SpeedReport:
     """At one speed (or value of ``parameter``): the stable period-1 orbit, or what is found there.
 
     Shoots the period-1 orbit; if it is stable, says so.  Otherwise marches ``periods``
@@ -713,13 +590,15 @@ def describe_speed(setup: Setup | Params, value: float | None = None, parameter:
     orbit, no periodic motion within the march, or a divergence.  With ``branch`` the nearest
     located bifurcation is named as well ("period doubling at ... r/min; stable period-2
     orbit ...").  ``steady_state(..., explain=True)`` gives the same report for the orbit it
-    solved (:attr:`fivebar.analyses.steady.SteadyState.explained`).
+    solved (:attr:`fivebar.analyses.steady.SteadyState.explained`).  ``method``: the method of
+    :data:`fivebar.analyses.orbits.ORBIT_METHODS` that solves and shoots the orbit and marches
+    from it ("shooting"; another is refused, naming those that serve).
     """
-    s = as_setup(setup)
-    f = linkage_period_map(s, parameter)
-    p = f.setup_value() if value is None else _given(s, parameter, "value", float(value))
+    prob = OrbitProblem(setup, parameter)
+    f = prob.period_map(method, "explain")
+    p = prob.value if value is None else prob.given("value", float(value))
     try:
-        st = steady_state(_setup_at(s, parameter, p))
+        st = steady_state(prob.at(p), method=method)
     except FivebarError as exc:
         return SpeedReport(f"at {p:.6g}{_unit(parameter)}: no period-1 orbit found by shooting "
                            f"({type(exc).__name__}: {exc})", "no periodic motion", None)
@@ -731,13 +610,16 @@ def _unit(parameter: str) -> str:
 
 
 @checked
-def explain_steady(st: SteadyState, periods: int = 400) -> SpeedReport:
+def explain_steady(st: SteadyState, periods: int = 400, method: str = "shooting") -> SpeedReport:
     """:func:`describe_speed`'s report for a solved steady state ``st`` (its set-up and speed),
-    without solving it again: what ``steady_state(..., explain=True)`` attaches."""
+    without solving it again: what ``steady_state(..., explain=True)`` attaches.  ``method``:
+    the method of :data:`fivebar.analyses.orbits.ORBIT_METHODS` whose period map is shot and
+    marched ("shooting"; another is refused, naming those that serve)."""
     if st.setup is None:
         raise InputError("explain needs the set-up of the result: solve with a fivebar.Setup or Params")
-    f = linkage_period_map(st.setup)
-    return _describe(f, f.setup_value(), st, periods, None)
+    prob = OrbitProblem(st.setup)
+    f = prob.period_map(method, "explain")
+    return _describe(f, prob.value, st, periods, None)
 
 
 def _describe(f: LinkagePeriodMap, p: float, st: SteadyState, periods: int,
@@ -788,23 +670,9 @@ def _describe(f: LinkagePeriodMap, p: float, st: SteadyState, periods: int,
                        "(quasi-periodic, chaotic or slowly settling)", "no periodic motion", orb)
 
 
-def _time_domain(solve, method: str):
-    """A method of :data:`STEADY_METHODS` in the time domain: at the set-up's S, or with ``tol``
-    at S = 50, 100, 200, ... until two successive S agree (:func:`fivebar.analyses.steady._to_tolerance`)."""
-
-    def run(s: Setup, tol: float | None, memo: dict | None) -> SteadyState:
-        return solve(s) if tol is None else _to_tolerance(s, method, tol, memo)
-    return run
-
-
-def _by_harmonic_balance(s: Setup, tol: float | None, memo: dict | None) -> SteadyState:
-    return harmonic_balance_steady_state(s, tol)  # (a warm start is refused before: shooting only)
-
-
-#: The methods of :func:`steady_state`, by name: ``(setup, tol, warm start) -> SteadyState``.
-#: A new method of periodic steady state is one module and one entry here.
-STEADY_METHODS = {"shooting": _time_domain(shooting, "shooting"), "march": _time_domain(march, "march"),
-                  "harmonic_balance": _by_harmonic_balance}
+#: The methods of :func:`steady_state` and the other callers of the engine, by name
+#: (:data:`fivebar.analyses.orbits.ORBIT_METHODS`, the same registry).
+STEADY_METHODS = ORBIT_METHODS
 
 
 @analysis
@@ -868,20 +736,18 @@ def steady_state(
         the inner tolerance of shooting.  Nothing is remembered between calls: the same
         arguments give the same result, to the last bit, whatever was computed before.
     """
-    if method not in STEADY_METHODS:
-        raise InputError(f"method = {method!r} is not allowed: use one of "
-                         + ", ".join(repr(m) for m in STEADY_METHODS))
+    orbit_method(method, "steady_state")
     explain = flag("explain", explain)
-    if explain and method != "shooting":
+    if explain and "explain" not in ORBIT_METHODS[method].serves:
         raise InputError(f"explain = True and method = {method!r} are not allowed together: explain needs the "
                          "Floquet multipliers of shooting (method='shooting')")
     if tol is not None:
         tol = number("tol", tol, low=0.0, high=1.0, low_open=True, high_open=True)
     s = as_setup(setup)
     memo = None if start is None else _warm_start(start, s, method, tol)
-    res = STEADY_METHODS[method](s, None if tol is None else float(tol), memo)
+    res = OrbitProblem(s).steady(method, "steady_state", tol=None if tol is None else float(tol), memo=memo)
     if explain and res.stable is False:
-        res._cache["explained"] = explain_steady(res)
+        res._cache["explained"] = explain_steady(res, method=method)
     outside = res._outside()
     if outside:
         warnings.warn(f"the steady state at {s.crank_speed_rpm:g} r/min is outside the model's validity: "

@@ -56,7 +56,6 @@ Exudyn is imported inside the functions: ``import fivebar`` does not need it.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -66,6 +65,7 @@ from numpy.typing import NDArray
 from ..errors import ComputationError, InputError
 from ..model.kinematics import crank_laws, link_angles, positions
 from ..description.params import Params
+from ..description.setup import Setup, analysis, as_setup
 from .response import DIRECTIONS
 
 __all__ = [
@@ -81,6 +81,8 @@ __all__ = [
 #: default mesh: twice the description's elements on every link (for the five-bar (2, 4, 4, 2)
 #: on L1..L4: couplers even, so a node sits at the midpoint)
 DEFAULT_ELEMENTS = None
+#: the least time steps per crank turn of :func:`multibody_steady_state` by default
+INTEGRATION_STEPS = 400
 
 
 class MultibodyError(ComputationError):
@@ -376,54 +378,63 @@ def _joint_constraints(lk, P, ang, flexible, node_at, add, crank_speed_rad_s: fl
             add(node_at(lnk, j.name), 1, weld, weld_jac, other=node_at(base, j.name))
 
 
+@analysis
 def frozen_system(
-    params: Params, theta1: float, theta4: float | None = None, elements_per_link=DEFAULT_ELEMENTS, beta: float = 0.0
+    setup: Setup | Params, theta1: float, theta4: float | None = None, beta: float = 0.0
 ) -> tuple[NDArray, NDArray, NDArray]:
     """Mass, stiffness and damping matrices of the frozen linkage, in the constraints' null space.
 
-    ``M, K, D = frozen_system(params, theta1, theta4)`` (SI): the Exudyn system linearised at
-    the undeformed configuration of the crank angles (rad; ``theta1`` alone for one driven
-    crank), roots clamped.
+    ``M, K, D = frozen_system(fivebar.Setup(params, elements_per_link=(2, 4, 4, 2)), theta1,
+    theta4)`` (SI): the Exudyn system linearised at the undeformed configuration of the crank
+    angles (rad; ``theta1`` alone for one driven crank), roots clamped.  ``setup``: the problem
+    (its parameters and its mesh ``elements_per_link``, ANCF elements per link, even on the
+    links between two pins; ``None``, or a Params: twice the description's mesh); ``beta`` the
+    Kelvin-Voigt damping time (s).
     """
     exu = _exudyn()
-    model = build(params, theta1, theta4, elements_per_link, beta=beta)
+    s = as_setup(setup)
+    model = build(s.params, theta1, theta4, _mesh(s), beta=beta)
     M, K, D = exu.solver.ComputeLinearizedSystem(model.mbs, exu.SimulationSettings(),
                                                  projectIntoConstraintNullspace=True)[:3]
     return np.asarray(M), np.asarray(K), np.asarray(D)
 
 
+@analysis
 def multibody_frequencies(
-    params: Params, theta1: float, theta4: float | None = None, n_modes: int = 6, elements_per_link=DEFAULT_ELEMENTS
+    setup: Setup | Params, theta1: float, theta4: float | None = None, n_modes: int = 6
 ) -> NDArray:
     """The ``n_modes`` lowest natural frequencies (Hz) of the frozen linkage, crank roots clamped.
 
-    ``f = multibody_frequencies(params, theta1, theta4)``: Exudyn's linearisation at the
+    ``f = multibody_frequencies(setup, theta1, theta4)``: Exudyn's linearisation at the
     undeformed configuration of the crank angles ``theta1, theta4`` (rad; ``theta1`` alone for
-    one driven crank), projected on the null space of the constraints.  Compare with
+    one driven crank), projected on the null space of the constraints; the set-up's parameters
+    and mesh (:func:`frozen_system`).  Compare with
     ``fivebar.natural_frequencies(fivebar.Setup(params, motors=False), theta1, theta4, n_modes=n_modes)``.
     """
     import scipy.linalg
 
     if isinstance(n_modes, bool) or int(n_modes) != n_modes or n_modes < 1:
         raise InputError(f"n_modes = {n_modes!r} is not allowed: give a positive integer number of modes")
-    M, K, _ = frozen_system(params, theta1, theta4, elements_per_link)
+    M, K, _ = frozen_system(setup, theta1, theta4)
     w2 = scipy.linalg.eigh(K, M, eigvals_only=True)
     if len(w2) < n_modes:
         raise InputError(f"n_modes = {n_modes!r} is not allowed: the model has {len(w2)} modes")
     return np.sqrt(np.clip(w2[: int(n_modes)], 0.0, None)) / (2 * np.pi)
 
 
+@analysis
 def damping_ratios(
-    params: Params, theta1: float, theta4: float | None, beta: float, n: int = 6, elements_per_link=DEFAULT_ELEMENTS
+    setup: Setup | Params, theta1: float, theta4: float | None, beta: float, n: int = 6
 ) -> tuple[NDArray, NDArray]:
     """Frequencies (Hz) and damping ratios of the ``n`` lowest modes of the damped frozen model.
 
     From the complex eigenvalues of the first-order form of (M, D, K) with damping time
-    ``beta`` (s): zeta = -Re(lambda) / abs(lambda).
+    ``beta`` (s): zeta = -Re(lambda) / abs(lambda); the set-up's parameters and mesh
+    (:func:`frozen_system`).
     """
     import scipy.linalg
 
-    M, K, D = frozen_system(params, theta1, theta4, elements_per_link, beta)
+    M, K, D = frozen_system(setup, theta1, theta4, beta)
     m = len(M)
     Z, I = np.zeros((m, m)), np.eye(m)
     lam = scipy.linalg.eigvals(np.block([[Z, I], [-np.linalg.solve(M, K), -np.linalg.solve(M, D)]]))
@@ -460,7 +471,7 @@ class MultibodySteadyState:
     periodicity_error: float
     seconds: float
     elements_per_link: tuple[int, ...]
-    steps_per_period: int
+    integration_steps: int
 
     @property
     def crank_angle_deg(self) -> NDArray:
@@ -528,12 +539,11 @@ class MultibodySteadyState:
         return "multibody"
 
 
+@analysis
 def multibody_steady_state(
-    params: Params,
-    crank_speed_rpm: float | None = None,
-    steps_per_period: int = 400,
-    samples: int | None = None,
-    elements_per_link=DEFAULT_ELEMENTS,
+    setup: Setup | Params,
+    *,
+    integration_steps: int | None = None,
     tol: float = 1e-3,
     ramp_periods: int = 2,
     max_periods: int = 200,
@@ -541,22 +551,24 @@ def multibody_steady_state(
 ) -> MultibodySteadyState:
     """Periodic steady state of the fully coupled multibody model (Exudyn).
 
-    ``res = multibody_steady_state(params)``; ``res.midpoint_mm("L2", "chord")`` (mm at the
-    ``samples + 1`` crank angles of one period from 0, as ``steady_state``).
+    ``res = multibody_steady_state(fivebar.Setup(params, crank_speed_rpm=600, steps_per_period=100,
+    elements_per_link=(2, 4, 4, 2)))``; ``res.midpoint_mm("L2", "chord")`` (mm at the S + 1
+    crank angles of one period from 0, as ``steady_state``).
 
     Parameters
     ----------
-    crank_speed_rpm
-        Speed of both cranks (r/min); ``None`` takes the parameter file's assumption.
-    steps_per_period
-        Time steps of the generalised-alpha integrator per crank turn (a multiple of samples).
-    samples
-        S: samples per period.  Default: the parameter file's ``steps_per_period`` when it
-        divides ``steps_per_period``, else the greatest common divisor of the two (so that the
-        samples fall on time steps).
-    elements_per_link
-        ANCF elements per link in chain order (L1..L4 for the five-bar; even on the links
-        between two pins); ``None`` is twice the description's mesh.
+    setup
+        The problem: a :class:`fivebar.description.setup.Setup`, of which the multibody model
+        takes the parameters, the crank speed, S (the samples per period, which must divide
+        ``integration_steps``) and the mesh ``elements_per_link`` (ANCF elements per link in
+        chain order, L1..L4 for the five-bar, even on the links between two pins; ``None``:
+        twice the description's mesh); or a Params (``Setup(params)``).  Its cranks turn at
+        constant speed (no motors); the ANCF elements are geometrically nonlinear and Exudyn
+        integrates with its own generalised-alpha scheme (spectral radius 0.8), so the set-up's
+        ``motors``, ``nonlinear`` and ``scheme`` do not apply.
+    integration_steps
+        Time steps of the generalised-alpha integrator per crank turn, a multiple of S; default
+        the least multiple of S that is at least :data:`INTEGRATION_STEPS` (400).
     tol
         Stop when the transverse midpoint curves of the couplers (L2 and L3 of the five-bar)
         change over one period by less than ``tol`` times their peak-to-peak value.
@@ -567,19 +579,21 @@ def multibody_steady_state(
         damping gives ``params.damping_ratio``.
     """
     exu = _exudyn()
-    if crank_speed_rpm is not None:
-        params = params.replace(crank_speed_rpm=crank_speed_rpm)
-    S = math.gcd(int(steps_per_period), params.steps_per_period) if samples is None else int(samples)
-    if S < 2 or steps_per_period % S:
-        raise InputError(f"steps_per_period = {steps_per_period!r} is not allowed: give a multiple of "
-                         f"the samples per period S = {S}")
+    s = as_setup(setup)
+    params = s.run_params
+    elements_per_link = _mesh(s)
+    S = int(s.steps_per_period)
+    steps_per_period = S * -(-INTEGRATION_STEPS // S) if integration_steps is None else int(integration_steps)
+    if steps_per_period < 1 or steps_per_period % S:
+        raise InputError(f"integration_steps = {integration_steps!r} is not allowed: give a multiple of "
+                         f"the set-up's samples per period S = {S} (steps_per_period)")
     if ramp_periods < 0 or ramp_periods % 2:
         raise InputError(f"ramp_periods = {ramp_periods!r} is not allowed: give an even number >= 0")
     if not tol > 0:
         raise InputError(f"tol = {tol!r} is not allowed: give a positive relative tolerance")
     T, W = params.period, params.crank_speed_rad_s
     th0 = _theta(params, None, None)
-    f = multibody_frequencies(params, th0[0], th0[1] if len(th0) > 1 else None, damping_mode, elements_per_link)
+    f = multibody_frequencies(s, th0[0], th0[1] if len(th0) > 1 else None, damping_mode)
     beta = 2 * params.damping_ratio / (2 * np.pi * f[damping_mode - 1])
     t0 = time.perf_counter()
     model = build(params, elements_per_link=elements_per_link, beta=beta, crank_speed_rad_s=W,
@@ -650,8 +664,14 @@ def multibody_steady_state(
     res.periodicity_error = state["error"]
     res.seconds = seconds
     res.elements_per_link = model.elements_per_link
-    res.steps_per_period = steps_per_period
+    res.integration_steps = steps_per_period
     return res
+
+
+def _mesh(setup: Setup):
+    """The multibody mesh of a set-up: its ``elements_per_link``, or (None) the default
+    :data:`DEFAULT_ELEMENTS` (twice the description's)."""
+    return DEFAULT_ELEMENTS if setup.elements_per_link is None else setup.elements_per_link
 
 
 def _steady(params: Params, rec: list[dict[str, NDArray]], ramp_periods: int) -> MultibodySteadyState:

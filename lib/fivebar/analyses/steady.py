@@ -51,6 +51,7 @@ from ..errors import FivebarError, InputError, ValidityWarning, array, flag, num
 from ..model.dynamics import LinkageDynamics, linkage_dynamics
 from ..numerics.eigen import frozen_modes
 from ..numerics.newmark import NewtonConvergenceError, integrate
+from ..numerics.periodic import ShootingError, newton_periodic
 from ..numerics.schemes import Scheme
 from ..description.params import Params
 from .response import Response, _problem
@@ -501,23 +502,27 @@ def _newton_orbit(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None
         V = full
 
     def evaluate(x, jacobian):
-        """Period map at x: result, monodromy times V (or None), residual, absolute and relative size."""
+        """Period map at x (an :data:`~fivebar.numerics.periodic.Evaluation`): the state after it,
+        monodromy times V (or None), residual, its absolute and relative size (energy norm), the
+        period's result."""
         if jacobian:
             res, W = _monodromy_period(dyn, x, scheme, V)
         else:
             res, W = _period(dyn, x[:n], x[n:], scheme), None
-        g = np.concatenate([res.u[-1], res.v[-1]]) - x
+        xT = np.concatenate([res.u[-1], res.v[-1]])
+        g = xT - x
         a = float(_energy_norm(dyn, g[:n], g[n:]))
         scale = _energy_norm(dyn, res.u, res.v).max()
         if not (np.isfinite(a) and np.isfinite(scale)):
             raise NewtonConvergenceError("the period's motion is not finite", float(dyn.period), np.inf, 0)
-        return res, W, g, a, a / max(scale, 1e-300)
+        return xT, W, g, a, a / max(scale, 1e-300), res
 
     x = np.concatenate([np.asarray(u0, float), np.asarray(v0, float)])
     given = _monodromy is not None and V is full and np.shape(_monodromy) == (2 * n, 2 * n)
     try:
         try:
-            res, W, g, a, r = evaluate(x, not given)
+            first = evaluate(x, not given)
+            W = first[1]
             if given:
                 W = np.asarray(_monodromy, float) / D[None, :]  # Phi V, V = diag(1 / D)
         except NewtonConvergenceError:
@@ -528,72 +533,43 @@ def _newton_orbit(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None
                 raise
             start = shooting(setup.replace(scheme=fallback), u0, v0, tol=tol, max_iter=max_iter)
             x = np.concatenate([start.u[0], start.v[0]])
-            res, W, g, a, r = evaluate(x, True)
+            first = evaluate(x, True)
+            W = first[1]
     except NewtonConvergenceError as exc:
         raise NewtonConvergenceError(
             f"shooting could not integrate the first period: {exc}. " + _remedy(scheme, dyn.steps_per_period),
             exc.t, exc.residual, exc.iterations) from exc
-    periods = 1
-    solve = _given_step(_monodromy, W, V, D) if given else _newton_step(W, V, D)
-    # the factorised Jacobian is that of the present x (at every x, if linear)
-    current = not given
-    own = not given  # W is this problem's own monodromy matrix (not the one given)
-    refresh = False  # evaluate the next trial with its monodromy matrix
-    floor = False  # no step reduces a residual within _ROUNDOFF of tol: the round-off floor of the map
-    for it in range(1, max_iter + 2):
-        if r <= tol or floor:
-            if current and V is full:
-                floquet = _Constant(W * D[None, :])  # W = Phi diag(1 / D)
-            else:
-                floquet = _OrbitMonodromy(dyn, scheme, x)
-            out = SteadyState(dyn, res.t, res.u, res.v, "shooting", periods, floquet, residual=r, scheme=scheme)
-            if V is full and own:
-                out._cache["monodromy"] = W * D[None, :]
-            return out
-        if it > max_iter:
-            break
-        y = solve(g)
-        lam = 1.0
-        for _ in range(11):
-            try:
-                trial = evaluate(x + lam * y, refresh)
-                periods += 1
-                if trial[3] < a or trial[4] <= tol:
-                    break
-            except NewtonConvergenceError:
-                periods += 1
-            if not current:  # the Jacobian is stale: take it at x and try the full step again
-                _, W, _, _, _ = evaluate(x, True)
-                periods += 1
-                solve, current, own = _newton_step(W, V, D), True, True
-                y, lam = solve(g), 1.0
-                continue
-            lam *= 0.5
-        else:
-            if r <= _ROUNDOFF * tol:  # as periodic as the period map's round-off lets it be (residual kept)
-                floor = True
-                continue
-            raise SteadyStateError(
-                f"shooting: no step along the Newton direction (halved 10 times) reduces the "
-                f"periodicity residual {r:.3e} in iteration {it}; " + _remedy(scheme, dyn.steps_per_period)
-            )
-        x = x + lam * y
-        slow = trial[3] > 0.1 * a
-        res, W_new, g, a, r = trial
-        if W_new is not None:
-            W, solve, current, own = W_new, _newton_step(W_new, V, D), True, True
-        else:
-            current = linear and own  # a given matrix is not this orbit's, even if linear
-        if slow and current and V is not full:
-            # the modes left to Picard's iteration decay too slowly: Newton on every direction;
-            # W is of the reduced basis until the next period with a monodromy matrix
-            V, current, own = full, False, False
-        refresh = slow and not current
-    raise SteadyStateError(
-        f"shooting did not converge in {max_iter} Newton iterations (max_iter): relative periodicity "
-        f"residual {r:.3e} (tolerance {tol:.1e}); if the residual was still falling, give a larger "
-        "max_iter or start from a nearby orbit (u0, v0); " + _remedy(scheme, dyn.steps_per_period)
-    )
+    solve = _given_step(_monodromy, W, V, D) if given else None
+
+    def widen() -> bool:
+        """Where the modes left to Picard's iteration decay too slowly: Newton on every direction
+        (W is of the reduced basis until the next period with a monodromy matrix)."""
+        nonlocal V
+        if V is full:
+            return False
+        V = full
+        return True
+
+    try:
+        out = newton_periodic(evaluate, x, first, lambda W: _newton_step(W, V, D), tol=tol, max_iter=max_iter,
+                              solve=solve, given=given, linear=linear, roundoff=_ROUNDOFF, widen=widen)
+    except ShootingError as exc:
+        if getattr(exc, "kind", None) == "no step":
+            raise SteadyStateError(f"{exc}; " + _remedy(scheme, dyn.steps_per_period)) from None
+        raise SteadyStateError(
+            f"shooting did not converge in {max_iter} Newton iterations (max_iter): relative periodicity "
+            f"residual {exc.residual:.3e} (tolerance {tol:.1e}); if the residual was still falling, give a larger "
+            "max_iter or start from a nearby orbit (u0, v0); " + _remedy(scheme, dyn.steps_per_period)) from None
+    x, res, W = out.x, out.evaluation[5], out.W
+    if out.current and V is full:
+        floquet = _Constant(W * D[None, :])  # W = Phi diag(1 / D)
+    else:
+        floquet = _OrbitMonodromy(dyn, scheme, x)
+    st = SteadyState(dyn, res.t, res.u, res.v, "shooting", out.evaluations, floquet, residual=out.residual,
+                     scheme=scheme)
+    if V is full and out.own:
+        st._cache["monodromy"] = W * D[None, :]
+    return st
 
 
 #: a residual that no Newton step reduces is accepted when it is within this factor of the tolerance:

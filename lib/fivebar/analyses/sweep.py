@@ -50,7 +50,8 @@ from ..description.params import Params
 from ..description.setup import Setup, analysis, as_setup
 from .modal import frequencies_along_cycle
 from .response import quasi_static
-from .steady import DEFLECTION_LIMIT, ValidityWarning, shooting
+from .orbits import OrbitProblem
+from .steady import DEFLECTION_LIMIT, ValidityWarning
 
 __all__ = ["ResonanceBand", "SweepError", "SweepInterrupted", "match_peaks", "resonance_band", "sweep_point",
            "speed_sweep", "sweep_peaks"]
@@ -218,7 +219,7 @@ def sweep_point(
     setup = as_setup(setup)
     crank_speed_rpm = setup.crank_speed_rpm
     links, direction = _check_links(links, direction, setup.params.linkage)
-    st = shooting(setup)
+    st = OrbitProblem(setup).steady("shooting", "steady_state")  # the engine's method by name
     quasi = quasi_static(setup)  # K(t)^-1 F(t) at the S steps
     out = {"speed (r/min)": float(crank_speed_rpm), "crank frequency (Hz)": float(crank_speed_rpm) / 60.0}
     for link in links:
@@ -419,7 +420,8 @@ def resonance_band(setup: Setup | Params, harmonic: int = 2, step_rpm: float = 2
     pp = []
     for p in speeds:
         try:
-            pp.append(shooting(linear.replace(crank_speed_rpm=float(p))).peak_to_peak_mm(link))
+            pp.append(OrbitProblem(linear.replace(crank_speed_rpm=float(p))).steady("shooting", "steady_state")
+                      .peak_to_peak_mm(link))
         except FivebarError:
             pp.append(np.nan)
     pp = np.array(pp)

@@ -63,6 +63,7 @@ __all__ = [
     "modal_period_map",
     "monodromy",
     "newmark_map",
+    "newton_periodic",
     "shoot",
 ]
 
@@ -429,6 +430,152 @@ def _one_blas_thread(func: Callable[..., Any]) -> Callable[..., Any]:
     return wrapper
 
 
+#: a period's evaluation for :func:`newton_periodic`: ``(x_T, W, g, a, r, data)``, the state after
+#: one period, the monodromy matrix (times the present basis; None when not asked), the residual
+#: ``g = x_T - x``, its absolute and relative size, and what the caller keeps of the period
+Evaluation = tuple
+
+
+@dataclass
+class PeriodicNewton:
+    """What :func:`newton_periodic` ends with.
+
+    Attributes
+    ----------
+    x : ndarray
+        The orbit's state at the start of the period.
+    evaluation : tuple
+        The last :data:`Evaluation` at ``x`` (its ``W`` may be None).
+    W : ndarray
+        The last monodromy matrix taken (times the basis): at ``x`` if ``current``.
+    current : bool
+        ``W`` is the Jacobian at ``x`` (or, for a linear map, anywhere).
+    own : bool
+        ``W`` was taken on this problem (not the one given to start with).
+    residual : float
+        The relative residual at ``x``.
+    iterations : int
+        Newton steps taken.
+    evaluations : int
+        Periods evaluated (with or without the monodromy matrix).
+    floor : bool
+        Accepted at the round-off floor of the map (within ``roundoff`` times ``tol``).
+    """
+
+    x: Array
+    evaluation: Evaluation
+    W: Any
+    current: bool
+    own: bool
+    residual: float
+    iterations: int
+    evaluations: int
+    floor: bool = False
+
+
+class _NoConvergence(ShootingError):
+    """:func:`newton_periodic` failed: ``kind`` "no step" (no halved step reduces the residual,
+    in ``iteration``) or "max_iter"; ``residual`` the relative residual then."""
+
+    def __init__(self, message: str, kind: str, iteration: int, residual: float) -> None:
+        super().__init__(message)
+        self.kind, self.iteration, self.residual = kind, iteration, residual
+
+
+def newton_periodic(evaluate: Callable[[Array, bool], Evaluation], x: ArrayLike, first: Evaluation,
+                    factorise: Callable[[Any], Callable[[Array], Array]], *, tol: float, max_iter: int,
+                    newton: str = "chord", solve: Callable[[Array], Array] | None = None,
+                    given: bool = False, linear: bool = False, roundoff: float = 1.0,
+                    widen: Callable[[], bool] | None = None) -> PeriodicNewton:
+    r"""Damped Newton's method on the periodicity condition :math:`\mathbf P(\mathbf x) - \mathbf x = \mathbf 0`:
+    the one loop of shooting, which :func:`shoot` (any period map) and the linkage's
+    :func:`fivebar.analyses.steady.shooting` (its energy norm and Newton-Picard step) configure.
+
+    ``evaluate(x, jacobian)`` gives one period's :data:`Evaluation` from ``x`` (the monodromy
+    matrix times the present basis when ``jacobian``), and raises
+    :class:`~fivebar.numerics.newmark.NewtonConvergenceError` where the period cannot be
+    integrated; ``first`` is its evaluation at the start ``x``.  ``factorise(W)`` returns the
+    step ``g -> y`` towards the orbit (factorised once).  A step whose period fails, or that
+    does not reduce the residual's absolute size, is halved, up to 10 times.
+
+    ``newton``: ``"full"`` takes the monodromy matrix at every new iterate (one more period
+    with it after each accepted step); ``"chord"`` keeps the factorised Jacobian while the
+    residual falls by a factor 10 a step (a linear map's matrix, when ``linear``, does not
+    change), takes the next trial's matrix when it falls slower, and takes a fresh one at the
+    iterate when a step with a stale one fails.  ``solve`` and ``given``: a step from a
+    Jacobian given to start with (not the problem's own).  ``widen()``, called when the residual
+    falls slowly with a current Jacobian, may widen the basis of the matrix (Newton-Picard to
+    Newton) and then returns True: the Jacobian is then stale.  Where no halved step reduces a
+    residual within ``roundoff`` times ``tol``, the iterate is accepted (the round-off floor
+    of the map).  Converged when the relative residual is at most ``tol``.
+
+    Raises :class:`ShootingError` (its ``kind``, ``iteration`` and ``residual`` say how).
+    """
+    if newton not in ("chord", "full"):
+        raise InputError(f"newton = {newton!r} is not allowed: give 'chord' or 'full'")
+    x = np.asarray(x, float)
+    ev = first
+    W = ev[1]
+    evaluations = 1
+    solve = factorise(W) if solve is None else solve
+    current = own = not given
+    refresh = False  # evaluate the next trial with its monodromy matrix
+    floor = False
+    r = ev[4]
+    for it in range(max_iter + 1):
+        if r <= tol or floor:
+            return PeriodicNewton(x, ev, W, current, own, r, it, evaluations, floor)
+        if it == max_iter:
+            break
+        a = ev[3]
+        y = solve(ev[2])
+        lam = 1.0
+        for _ in range(11):
+            try:
+                trial = evaluate(x + lam * y, refresh)
+                evaluations += 1
+                if np.isfinite(trial[3]) and (trial[3] < a or trial[4] <= tol):
+                    break
+            except NewtonConvergenceError:
+                evaluations += 1
+            if not current:  # the Jacobian is stale: take it at x and try the full step again
+                W = evaluate(x, True)[1]
+                evaluations += 1
+                solve, current, own = factorise(W), True, True
+                y, lam = solve(ev[2]), 1.0
+                continue
+            lam *= 0.5
+        else:
+            if r <= roundoff * tol:  # as periodic as the map's round-off lets it be (residual kept)
+                floor = True
+                continue
+            raise _NoConvergence(
+                f"shooting: no step along the Newton direction (halved 10 times) reduces the periodicity "
+                f"residual {r:.3e} in iteration {it + 1}", "no step", it + 1, r)
+        x = x + lam * y
+        if newton == "full":
+            fresh = evaluate(x, True)
+            evaluations += 1
+            W, solve, current, own = fresh[1], factorise(fresh[1]), True, True
+            if trial[4] <= tol:  # converged: the matrix at x, the trial's residual
+                ev, r = (fresh[0], fresh[1]) + tuple(trial[2:]), trial[4]
+                continue
+            ev, r = fresh, fresh[4]
+            continue
+        slow = trial[3] > 0.1 * a
+        ev, r = trial, trial[4]
+        if trial[1] is not None:
+            W, solve, current, own = trial[1], factorise(trial[1]), True, True
+        else:
+            current = linear and own  # a given matrix is not this orbit's, even if linear
+        if slow and current and widen is not None and widen():
+            current = own = False
+        refresh = slow and not current
+    raise _NoConvergence(
+        f"shooting did not converge in {max_iter} Newton iterations: periodicity residual {r:.3e} "
+        f"(tolerance {tol:.1e})", "max_iter", max_iter, r)
+
+
 @checked
 @_one_blas_thread
 def shoot(period_map: PeriodMap, x0: ArrayLike, p: float | None = None, tol: float = 1e-10,
@@ -476,44 +623,29 @@ def shoot(period_map: PeriodMap, x0: ArrayLike, p: float | None = None, tol: flo
         count[0] += 1
         return period_map(x, p, jacobian)
 
-    def resid(x, xT):
-        g = (xT - x) / D
-        ref = max(float(np.linalg.norm(x / D)), float(np.linalg.norm(xT / D)), 1e-300)
-        return g, float(np.linalg.norm(g)), float(np.linalg.norm(g)) / ref
-
-    xT, Phi = monodromy(counted, x, p, scale)
-    g, a, r = resid(x, xT)
-    for it in range(max_iter + 1):
-        if r <= tol:
-            return PeriodicOrbit(x, p, Phi, r, it, count[0])
-        if it == max_iter:
-            break
-        J = (Phi * (1.0 / D)[:, None]) * D[None, :] - np.eye(x.size)  # scaled Phi - I
-        y = D * _lstsq(J, -g)
-        lam = 1.0
-        for _ in range(11):
-            try:
-                xt = x + lam * y
-                xTt = counted(xt, p, False)[0]
-                gt, at, rt = resid(xt, xTt)
-                if np.isfinite(at) and (at < a or rt <= tol):
-                    break
-            except NewtonConvergenceError:
-                pass
-            lam *= 0.5
+    def evaluate(x, jacobian):
+        if jacobian:
+            xT, Phi = monodromy(counted, x, p, scale)
         else:
-            raise ShootingError(
-                f"shooting: no step along the Newton direction (halved 10 times) reduces the "
-                f"periodicity residual {r:.3e} in iteration {it + 1} (p = {p!r})")
-        x = xt
-        if rt <= tol:
-            _, Phi = monodromy(counted, x, p, scale)
-            return PeriodicOrbit(x, p, Phi, rt, it + 1, count[0])
-        xT, Phi = monodromy(counted, x, p, scale)
-        g, a, r = resid(x, xT)
-    raise ShootingError(
-        f"shooting did not converge in {max_iter} Newton iterations: scaled periodicity residual "
-        f"{r:.3e} (tolerance {tol:.1e}) at p = {p!r}")
+            xT, Phi = counted(x, p, False)[0], None
+        g = xT - x
+        a = float(np.linalg.norm(g / D))
+        ref = max(float(np.linalg.norm(x / D)), float(np.linalg.norm(xT / D)), 1e-300)
+        return xT, Phi, g, a, a / ref, None
+
+    def factorise(Phi):
+        J = (Phi * (1.0 / D)[:, None]) * D[None, :] - np.eye(x.size)  # scaled Phi - I
+        return lambda g: D * _lstsq(J, -(g / D))
+
+    try:
+        out = newton_periodic(evaluate, x, evaluate(x, True), factorise, tol=tol, max_iter=max_iter, newton="full")
+    except _NoConvergence as exc:
+        if exc.kind == "no step":
+            raise ShootingError(f"{exc} (p = {p!r})") from None
+        raise ShootingError(
+            f"shooting did not converge in {max_iter} Newton iterations: scaled periodicity residual "
+            f"{exc.residual:.3e} (tolerance {tol:.1e}) at p = {p!r}") from None
+    return PeriodicOrbit(out.x, p, out.W, out.residual, out.iterations, count[0])
 
 
 def _lstsq(J: Array, b: Array, rcond: float = 1e-13) -> Array:

@@ -21,6 +21,7 @@ from .control_model import _MEASURES, ControlModalModel, Servo, control_modal_mo
 from ...errors import InputError
 from ...model.free_rotors import FlexibleLinkage, _count, _cycle_angles, _finite, _positive, rigid_inertia
 from ...description.params import Params
+from ...description.setup import Setup, analysis, as_setup
 
 __all__ = [
     "damping_lqr",
@@ -29,17 +30,20 @@ __all__ = [
     "schedule",
 ]
 
+@analysis
 def pd_servo(
-    params: Params, bandwidth: float, zeta: float = 0.7, measure: str = "rotor", samples: int = 36
+    setup: Setup | Params, bandwidth: float, zeta: float = 0.7, measure: str = "rotor", samples: int = 36
 ) -> Servo:
     """PD gains that place each motor's rigid closed-loop poles at ``bandwidth`` (Hz).
 
-    ``servo = pd_servo(params, bandwidth=5.0)``: kp_i = J_i w^2, kd_i = 2 zeta J_i w,
+    ``servo = pd_servo(setup, bandwidth=5.0)`` (a Setup, of which the parameters are used, or a
+    Params): kp_i = J_i w^2, kd_i = 2 zeta J_i w,
     w = 2 pi bandwidth, with J_i the cycle mean of the diagonal of the rigid mass matrix
     (:func:`rigid_inertia`) over ``samples`` configurations of the default crank laws: for
     J_i s^2 + kd_i s + kp_i this is a pair of poles of natural frequency w and damping
     ``zeta``.
     """
+    params = as_setup(setup).params
     bw = _positive("bandwidth", bandwidth, "Hz")
     z = _positive("zeta", zeta)
     samples = _count("samples", samples, 1, 10**6)
@@ -131,8 +135,9 @@ def schedule(gains: ArrayLike, angles: ArrayLike) -> Callable[[ArrayLike], NDArr
     return gain
 
 
+@analysis
 def damping_schedule(
-    params: Params,
+    setup: Setup | Params,
     servo: Servo,
     crank_angles: ArrayLike,
     n_modes: int = 6,
@@ -146,14 +151,16 @@ def damping_schedule(
     driven cranks: ``G[0]`` the position gain G_p and ``G[1]`` the velocity gain G_v of
     tau = -G_p p - G_v p' (coordinates of :class:`FlexibleLinkage`, in which the gains do not
     depend on the sign or order of the mode shapes, so they can be interpolated).
-    ``crank_angles`` (rad) are angles of crank AB from its initial angle.
+    ``crank_angles`` (rad) are angles of crank AB from its initial angle.  ``setup``: a Setup
+    (its parameters and mesh) or a Params.
     """
+    s = as_setup(setup)
     a = np.atleast_1d(_finite("crank_angles", crank_angles))
-    th = _cycle_angles(params, a)
-    fl = FlexibleLinkage(params)
+    th = _cycle_angles(s.params, a)
+    fl = FlexibleLinkage(s.params, s.elements_per_link)
     out = []
     for x in zip(*th):
-        mm = control_modal_model(params, *(tuple(x) + (None,) * (2 - len(x))), n_modes=n_modes, linkage=fl)
+        mm = control_modal_model(s, *(tuple(x) + (None,) * (2 - len(x))), n_modes=n_modes, linkage=fl)
         out.append(np.stack(mm.physical_gains(damping_lqr(mm, servo, damped_modes, q, r))))
     return schedule(np.array(out), a)
 

@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from ...errors import InputError
 from ...model.free_rotors import DEFAULT_OUTPUTS, FlexibleLinkage, _count, _cycle_angles, _finite, _outputs
 from ...description.params import Params
+from ...description.setup import Setup, analysis, as_setup
 
 __all__ = [
     "ControlModalModel",
@@ -282,40 +283,42 @@ class ControlModalModel:
 
 
 
+@analysis
 def control_modal_model(
-    params: Params,
+    setup: Setup | Params,
     theta1: float,
     theta4: float | None = None,
     n_modes: int = 6,
     *,
     rotor_inertia_scale: float = 1.0,
-    elements_per_link: tuple[int, int, int, int] | None = None,
     damping_ratio: float | None = None,
     linkage: FlexibleLinkage | None = None,
 ) -> ControlModalModel:
     """The reduced model (the rigid modes + ``n_modes`` elastic modes) at a frozen configuration.
 
-    ``mm = control_modal_model(params, theta1, theta4)``; ``mm.statespace()``;
+    ``mm = control_modal_model(setup, theta1, theta4)``; ``mm.statespace()``;
     ``control_modal_model(params, theta, n_modes=4)`` for a linkage with one driven crank.
 
     Parameters
     ----------
-    params
-        Parameter set.
+    setup
+        The problem: a :class:`fivebar.description.setup.Setup` (its parameters and its mesh
+        ``elements_per_link``, default the paper's; the configuration is frozen, so the crank
+        speed, S and scheme do not apply, and the rotors are free), or a Params (``Setup(params)``).
     theta1, theta4
         Crank angles (rad), one per driven crank (``theta4`` only for two).
     n_modes
         Elastic modes kept (1 .. n - r, r the driven cranks).
     rotor_inertia_scale
         Factor on J0 (large: rotors clamped).
-    elements_per_link
-        Mesh (default the paper's).
     damping_ratio
         Modal damping ratio; ``None`` takes ``params.damping_ratio``.
     linkage
         A prebuilt :class:`FlexibleLinkage` (its mesh and rotor scale are used).
     """
-    fl = linkage or FlexibleLinkage(params, elements_per_link, rotor_inertia_scale)
+    s = as_setup(setup)
+    params = s.params
+    fl = linkage or FlexibleLinkage(params, s.elements_per_link, rotor_inertia_scale)
     th = _theta(fl, theta1, theta4)
     r = fl.inputs
     n_modes = _count("n_modes", n_modes, 1, fl.n - r)
@@ -350,8 +353,9 @@ def _theta(fl: FlexibleLinkage, theta1: float, theta4: float | None) -> tuple[fl
     return float(_finite("theta1", theta1)), float(_finite("theta4", theta4))
 
 
+@analysis
 def linear_model(
-    params: Params,
+    setup: Setup | Params,
     theta1: float,
     theta4: float | None = None,
     n_modes: int = 6,
@@ -360,7 +364,8 @@ def linear_model(
 ) -> control.StateSpace:
     """Linear flexible model at a frozen configuration, as a :class:`control.StateSpace`.
 
-    ``sys = linear_model(params, theta1, theta4, n_modes=6)``
+    ``sys = linear_model(setup, theta1, theta4, n_modes=6)`` (a Setup, of which its parameters and
+    mesh are used, or a Params)
 
     Inputs ``tau1, tau4``: motor torques on the rotors (N m).  Outputs (default)
     ``theta1, theta4``: rotor angles (rad); ``w2, w3``: transverse midpoint deflections of L2,
@@ -370,12 +375,13 @@ def linear_model(
     midpoints of its couplers (:attr:`fivebar.model.free_rotors.FlexibleLinkage.default_outputs`).
     Keyword arguments go to :func:`control_modal_model`.
     """
-    return control_modal_model(params, theta1, theta4, n_modes, **kwargs).statespace(outputs)
+    return control_modal_model(setup, theta1, theta4, n_modes, **kwargs).statespace(outputs)
 
 
 
+@analysis
 def models_along_cycle(
-    params: Params,
+    setup: Setup | Params,
     crank_angles: ArrayLike,
     n_modes: int = 6,
     outputs: Sequence[str] | None = None,
@@ -384,12 +390,13 @@ def models_along_cycle(
     """Linear models at the configurations of the default crank laws.
 
     ``crank_angles`` (rad) are angles of crank AB from its initial angle; crank DE follows
-    with the speed ratio (as :func:`fivebar.analyses.modal.frequencies_along_cycle`).
+    with the speed ratio (as :func:`fivebar.analyses.modal.frequencies_along_cycle`).  ``setup``:
+    a Setup (its parameters and mesh) or a Params.
     """
+    s = as_setup(setup)
+    params = s.params
     th = _cycle_angles(params, crank_angles)
-    fl = kwargs.pop("linkage", None) or FlexibleLinkage(
-        params, kwargs.pop("elements_per_link", None), kwargs.pop("rotor_inertia_scale", 1.0)
-    )
-    return [control_modal_model(params, *(tuple(a) + (None,) * (2 - len(a))), n_modes=n_modes, linkage=fl,
+    fl = kwargs.pop("linkage", None) or FlexibleLinkage(params, s.elements_per_link, kwargs.pop("rotor_inertia_scale", 1.0))
+    return [control_modal_model(s, *(tuple(a) + (None,) * (2 - len(a))), n_modes=n_modes, linkage=fl,
                                 **kwargs).statespace(outputs) for a in zip(*th)]
 

@@ -176,7 +176,7 @@ def _closed_loop(setup, servo, damping, reference) -> _ClosedLoop:
     S = _count("steps_per_period", setup.steps_per_period, 2, 10**7)
     if not isinstance(servo, Servo):
         raise InputTypeError(f"servo must be a Servo, got {type(servo).__name__}")
-    fl = FlexibleLinkage(params)
+    fl = FlexibleLinkage(params, setup.elements_per_link)
     T = params.period
     dt = T / S
     t = np.arange(S) * dt
@@ -240,8 +240,9 @@ def simulate_cycle(
     Parameters
     ----------
     setup
-        The problem, a :class:`fivebar.description.setup.Setup` (its crank speed, S and scheme; motors,
-        nonlinearity and mesh do not apply here), or a Params (``Setup(params)``).
+        The problem, a :class:`fivebar.description.setup.Setup` (its crank speed, S, scheme and
+        mesh; the rotors are free and the model linear, so motors and nonlinearity do not apply
+        here), or a Params (``Setup(params)``).
     servo
         The PD servo (it acts on the deviation of the measured angle from the crank laws).
     damping
