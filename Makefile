@@ -9,8 +9,8 @@ STAMP  := $(VENV)/.installed
 # that nbval sees the same figure outputs as were stored (tests/conftest.py selects Agg).
 export PYDEVD_DISABLE_FILE_VALIDATION := 1
 
-.PHONY: venv test check test-unit test-notebooks test-notebooks-other book book-clean book-student pdf pdf-if-tex execute clean \
-	rerun rerun-examples
+.PHONY: venv test check test-unit test-notebooks test-notebooks-other book book-clean book-student book-student-html \
+	pdf pdf-if-tex pdfs-if-tex datasets execute clean rerun rerun-examples
 
 venv: $(STAMP)
 
@@ -34,14 +34,18 @@ $(STAMP): requirements-lock.txt pyproject.toml
 ## A notebook that does not reproduce stops `make test` there (the book would show it).
 ## TEST_JOBS: worker processes of nbval and tests/ (pytest-xdist; a notebook, and a test file,
 ## stays on one worker, in order).  The book's machine has 2 cores; TEST_JOBS=0 runs in-process.
+## The single-threaded builds run two at a time (the machine has 2 cores): the data downloads
+## beside the first nbval pass, the two editions' PDFs together, then the two editions' HTML
+## (the student edition: tests/test_editions.py finds it built and up to date).
 TEST_JOBS ?= 2
+BUILD_JOBS ?= 2
 test: venv
-	$(MAKE) --no-print-directory test-notebooks
+	$(MAKE) --no-print-directory -j$(BUILD_JOBS) test-notebooks datasets
 	$(MAKE) --no-print-directory test-notebooks-other
 	$(BIN)/python book/_ext/fivebar_build.py seed-cache
-	$(MAKE) --no-print-directory pdf-if-tex
-	$(MAKE) --no-print-directory book
-	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q --durations=15
+	$(MAKE) --no-print-directory pdfs-if-tex
+	$(MAKE) --no-print-directory -j$(BUILD_JOBS) -Otarget book book-student-html
+	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q --durations=25
 
 ## make check: the fast unit tests (not marked slow; no notebooks, no book, no browser), for the
 ## edit-test loop: about a minute on 2 cores.  `make test` runs everything.
@@ -53,8 +57,11 @@ check: venv
 test-unit: venv
 	$(BIN)/python -m pytest -p no:cacheprovider tests -q --ignore=tests/test_browser.py
 
+## The notebooks go to the workers longest first (book/conftest.py; --no-loadscope-reorder keeps
+## that order instead of xdist's, by number of cells), so that no long one runs alone at the end.
+NBVAL_DIST := --dist loadscope --no-loadscope-reorder
 test-notebooks: venv
-	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadscope book --nbval --nbval-current-env \
+	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) $(NBVAL_DIST) book --nbval --nbval-current-env \
 	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
 
 ## make test-notebooks-other: nbval (strict) again in a second numerical environment that rounds
@@ -65,7 +72,7 @@ test-notebooks: venv
 test-notebooks-other: venv
 	@mkdir -p _build/numba-generic
 	NUMBA_CPU_NAME=generic NUMBA_CACHE_DIR=$(CURDIR)/_build/numba-generic OPENBLAS_NUM_THREADS=1 \
-	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadscope book --nbval --nbval-current-env \
+	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) $(NBVAL_DIST) book --nbval --nbval-current-env \
 	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
 
 ## make book: the rendered HTML book in _build/html.  Sphinx warnings are errors (-W -n,
@@ -84,8 +91,13 @@ book: venv
 ## is there) the student PDF, both offered by its pages.  The instructor edition, with
 ## solutions, is `make book`.  Reuses the execution cache of `make book`.
 book-student: venv
-	@mkdir -p _build
 	@$(MAKE) --no-print-directory pdf-if-tex EDITION=student
+	@$(MAKE) --no-print-directory book-student-html
+
+## make book-student-html: the student edition's pages and archive only (they offer the student
+## PDF if it has been built; make test builds it first, beside the instructor's)
+book-student-html: venv
+	@mkdir -p _build
 	set -eo pipefail; \
 	$(BIN)/python book/_ext/fivebar_build.py student 2>&1 | tee _build/student.log
 
@@ -99,10 +111,26 @@ pdf: venv
 	set -eo pipefail; \
 	$(BIN)/python book/_ext/fivebar_build.py pdf --edition $(EDITION) 2>&1 | tee _build/pdf$(if $(filter student,$(EDITION)),-student).log
 
+HAVE_TEX = command -v xelatex >/dev/null && command -v latexmk >/dev/null && command -v makeindex >/dev/null
 pdf-if-tex: venv
-	@if command -v xelatex >/dev/null && command -v latexmk >/dev/null && command -v makeindex >/dev/null; \
+	@if $(HAVE_TEX); \
 	then $(MAKE) --no-print-directory pdf EDITION=$(EDITION); \
 	else echo "no XeLaTeX/latexmk/makeindex: no PDF (tests/test_pdf.py skips it; under CI it fails)"; fi
+
+## make pdfs-if-tex: both editions' PDFs at once (each build is single-threaded; `make test`)
+pdfs-if-tex: venv
+	@if $(HAVE_TEX); \
+	then $(MAKE) --no-print-directory -j$(BUILD_JOBS) -Otarget pdf-edition-instructor pdf-edition-student; \
+	else echo "no XeLaTeX/latexmk/makeindex: no PDF (tests/test_pdf.py skips it; under CI it fails)"; fi
+
+pdf-edition-%: venv
+	@$(MAKE) --no-print-directory pdf EDITION=$*
+
+## make datasets: the CSV files the book offers for download (book/_generated/data; the book
+## builds write them when missing or stale: `make test` writes them beside the first nbval
+## pass so that the two PDF builds that follow do not both compute them)
+datasets: venv
+	$(BIN)/python book/_ext/fivebar_build.py datasets
 
 ## make book-clean: force a full re-execution of every notebook and a full rebuild (and
 ## regenerate the CSV downloads and animation pages in book/_generated)
