@@ -466,6 +466,28 @@ def test_shooting_settles_first_where_newtons_step_fails():
         assert np.abs(mr.midpoint_mm(link) - sh.midpoint_mm(link)).max() < 1e-6 * sh.peak_to_peak_mm(link)
 
 
+def test_a_cold_start_that_cannot_leave_the_quasi_static_state_starts_from_the_coarser_orbit():
+    """Issue 32: the flexible orientation at 30 r/min with 3 % damping, nonlinear, S = 100
+    (examples/params/flexible_slow_damped.toml): from the quasi-static state the first step's
+    Newton iteration stalls (Newton on periodicity and the march fail alike), while from the
+    orbit at S = 50 every step converges.  Shooting then starts from that orbit; its orbit is the
+    one a march at S = 100 from the same state settles on (no Newton on periodicity), to the
+    march's tolerance."""
+    from fivebar.analyses.steady import _newton_orbit
+    from fivebar.numerics.newmark import NewtonConvergenceError
+
+    p = load_params().replace(**{"bending_depth": 0.002, "crank_speed_rpm": 30.0, "damping_ratio": 0.03})
+    s = Setup(p, steps_per_period=100)
+    with pytest.raises(NewtonConvergenceError, match="could not integrate the first period"):
+        _newton_orbit(s, None, None, 1e-10, 20)  # the case: the cold start fails
+    sh = shooting(s)
+    assert sh.dynamics.steps_per_period == 100 and sh.residual < 1e-8
+    coarse = shooting(s.replace(steps_per_period=50))
+    mr = march(s, coarse.u[0], coarse.v[0], tol=1e-10, max_periods=400)
+    for link in ("L2", "L3"):
+        assert np.abs(mr.midpoint_mm(link) - sh.midpoint_mm(link)).max() < 1e-6 * sh.peak_to_peak_mm(link)
+
+
 def test_shooting_stops_at_the_round_off_floor_within_ten_times_the_tolerance():
     """Issue 32: a residual that no Newton step reduces is the round-off floor of the period map;
     within ten times ``tol`` the orbit is returned (its residual kept), farther it is an error.  The

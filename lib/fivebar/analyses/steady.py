@@ -427,14 +427,20 @@ def _shooting(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) ->
     starts again from there: the orbit a damped, stable linkage settles on, which the Newton step
     from the quasi-static state can miss when the deflections are large (the steel five-bar of
     ``examples/params/steel_heavy_ratio2.toml``, 2 mm side in the plane, at 60 r/min: six periods
-    of march, then five of shooting).  The result is a function of the arguments alone."""
+    of march, then five of shooting).  A cold start (no u0, v0) that still fails starts from the
+    orbit at S / 2 (:func:`_from_coarser`).  The result is a function of the arguments alone."""
     try:
         return _newton_orbit(setup, u0, v0, tol, max_iter, monodromy)
     except (SteadyStateError, NewtonConvergenceError) as first:
         dyn, scheme, s = _problem(setup)
-        if scheme.rho_infinity >= 1.0:
+        cold = u0 is None and v0 is None
+        if scheme.rho_infinity >= 1.0:  # no march settles without the scheme's dissipation
+            if cold:
+                return _from_coarser(s, tol, max_iter, first)
             raise
-        if u0 is None or v0 is None:
+        if cold:
+            u0, v0 = _initial_state(dyn)
+        elif u0 is None or v0 is None:
             us, vs = _initial_state(dyn)
             u0 = us if u0 is None else u0
             v0 = vs if v0 is None else v0
@@ -442,15 +448,41 @@ def _shooting(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) ->
             u, v, k, change = _settle(dyn, scheme, np.asarray(u0, float), np.asarray(v0, float), _SETTLE_TOL,
                                       _SETTLE_PERIODS)
         except (SteadyStateError, NewtonConvergenceError) as exc:
+            if cold:
+                return _from_coarser(s, tol, max_iter, first)
             raise first from exc
         try:
             out = _newton_orbit(s, u, v, tol, max_iter)
         except (SteadyStateError, NewtonConvergenceError) as second:
+            if cold:
+                return _from_coarser(s, tol, max_iter, first)
             raise SteadyStateError(
                 f"{first}; then a march of {k} periods from the same start (last relative change over a period "
                 f"{change:.2e}) and shooting from there failed too: {second}") from second
         out.periods += k
         return out
+
+
+def _from_coarser(setup: Setup, tol, max_iter, first: Exception) -> SteadyState:
+    """The cold start's last resort: where neither Newton's method nor a march gets away from the
+    quasi-static state at S (the first step's Newton iteration stalls), shoot from the orbit at
+    S / 2, as ``steady_state(..., tol=...)`` starts each S from the coarser one (the state at
+    t = 0 is a step time of both).  The orbit at S / 2 is itself a cold start (with this resort
+    down to the fewest steps the parameters allow).  Found on the flexible orientation at
+    30 r/min with 3 % damping (``examples/params/flexible_slow_damped.toml``): at S = 100 the first
+    step from the quasi-static state does not converge, from the orbit at S = 50 every step
+    does.  Raises ``first`` (the cold start's failure) where S cannot be halved or the coarser
+    start fails too."""
+    S = setup.steps_per_period
+    if S % 2 or S // 2 < min_steps_per_period(setup.params):
+        raise first
+    try:
+        coarse = _shooting(setup.replace(steps_per_period=S // 2), None, None, tol, max_iter)
+        out = _newton_orbit(setup, coarse.u[0], coarse.v[0], tol, max_iter)
+    except (SteadyStateError, NewtonConvergenceError) as exc:
+        raise first from exc
+    out.periods += coarse.periods
+    return out
 
 
 def _settle(dyn: LinkageDynamics, scheme: Scheme, u: NDArray, v: NDArray, tol: float,
