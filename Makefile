@@ -164,11 +164,14 @@ rerun: venv
 ## first: fails on any cell error or failed physics check.  Notebooks only (no HTML pages); the
 ## matrix of outcomes (completes, says what does not apply, fails) and CPU seconds is printed and
 ## written to _build/rerun/matrix.md (book/run.md, "The rerun matrix").
-## RERUN_FILES: the files of the matrix (default all of examples/params/; CI runs the README's
-## two, mine.toml and l2_damping.toml: all ten take about 80 CPU-minutes).
+## RERUN_FILES: the files of the matrix (default all of examples/params/: all ten take about 80
+## CPU-minutes, chapters 14 and 15 half of it).  RERUN_ONLY_WITH: chapters kept to some files,
+## "NN=STEM[,STEM] ..." (CI: "14=l2_damping 15=l2_damping", every other chapter with every file).
 RERUN_FILES ?= $(wildcard examples/params/*.toml)
+RERUN_ONLY_WITH ?=
 rerun-examples: venv
-	$(BIN)/python book/_ext/fivebar_rerun.py $(RERUN_FILES) --each --jobs $(RERUN_JOBS) --no-html
+	$(BIN)/python book/_ext/fivebar_rerun.py $(RERUN_FILES) --each --jobs $(RERUN_JOBS) --no-html \
+	$(if $(strip $(RERUN_ONLY_WITH)),--only-with $(RERUN_ONLY_WITH))
 
 clean:
 	rm -rf _build .pytest_cache book/_generated

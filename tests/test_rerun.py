@@ -112,3 +112,11 @@ def test_each_file_alone_and_the_matrix_with_what_does_not_apply(tmp_path):
     matrix = (out / "matrix.md").read_text()
     assert "| 01_mechanism | ok (" in matrix and "ok, 1 not applicable" in matrix
     assert "01_mechanism with `b`: **The light damping study** does not apply" in matrix
+    # --only-with: the chapter reruns with the files named only (CI's longest chapters), '-' for the others
+    out2 = tmp_path / "out2"
+    assert rerun.main([str(a), str(b), "--each", "--chapters", str(nb_path), "--no-html", "--out", str(out2),
+                       "--only-with", "01=a"]) == 0
+    assert (out2 / "a" / "01_mechanism.ipynb").is_file() and not (out2 / "b" / "01_mechanism.ipynb").exists()
+    assert "| 01_mechanism | ok (" in (out2 / "matrix.md").read_text() and " | - | " in (out2 / "matrix.md").read_text()
+    for bad in ("01=zzz", "01", "99=a"):
+        assert rerun.main([str(a), str(b), "--each", "--no-html", "--out", str(out2), "--only-with", bad]) == 2

@@ -326,6 +326,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="rerun with each file alone (not layered), every chapter with every file in one pool of "
                     "--jobs processes (the matrix of make rerun-examples): _build/rerun/<stem> per file, and the "
                     "matrix of outcomes and CPU times in _build/rerun/matrix.md")
+    ap.add_argument("--only-with", nargs="*", default=[], metavar="NN=STEM[,STEM]",
+                    help="with --each: chapter NN reruns only with the files of these stems (the others show "
+                    "'-' in the matrix); CI keeps its longest chapters to some files so")
     ap.add_argument("--jobs", type=int, default=2, help="chapters executed in parallel (default 2)")
     ap.add_argument("--no-html", action="store_true", help="only the executed notebooks")
     ap.add_argument("--out", type=Path, default=OUT, help="default: _build/rerun")
@@ -368,9 +371,21 @@ def main(argv: list[str] | None = None) -> int:
             old.unlink()
         outdir.mkdir(parents=True, exist_ok=True)
         dirs[name], cwds[name] = outdir, shadow_tree(outdir)
+    only: dict[str, set[str]] = {}
+    for rule in args.only_with:
+        nn, _, stems = rule.partition("=")
+        try:
+            (chapter,) = select([nn])
+        except (LookupError, ValueError):
+            chapter = None
+        if not args.each or chapter is None or not stems or not set(stems.split(",")) <= set(runs):
+            print(f"fivebar_rerun: --only-with {rule!r} is not allowed: give NN=STEM[,STEM] with --each, a chapter "
+                  f"and stems of the files given ({', '.join(runs)})", file=sys.stderr)
+            return 2
+        only[chapter.stem] = set(stems.split(","))
     # every chapter of every rerun, the longest (by the book's own times) first
     order = sorted(selected, key=book_seconds, reverse=True) if len(runs) > 1 else selected
-    tasks = [(name, p) for p in order for name in runs]
+    tasks = [(name, p) for p in order for name in runs if name in only.get(p.stem, {name})]
 
     t0 = time.perf_counter()
     what = f"each of {len(files)} files" if args.each else ", ".join(files)
