@@ -69,6 +69,7 @@ from ..description.setup import Setup, analysis, as_setup
 from .response import DIRECTIONS
 
 __all__ = [
+    "INTEGRATION_STEPS",
     "MultibodyError",
     "MultibodyModel",
     "MultibodySteadyState",

@@ -206,8 +206,8 @@ class OrbitMethod:
         The name callers give (``method=``).
     steady : callable
         ``steady(setup, tol, memo) -> SteadyState``: the periodic steady state of one set-up
-        (``tol`` None: at the set-up's S; ``memo`` a warm start checked by
-        :func:`fivebar.analyses.steady._warm_start`, or None).
+        (``tol`` None: at the set-up's S; ``memo`` the warm start of ``steady_state(...,
+        start=)``, checked, or None).
     period_map : callable or None
         ``period_map(setup, parameter)``: the set-up's period map in ``parameter`` (a
         :class:`fivebar.numerics.periodic.PeriodMap`, as :class:`LinkagePeriodMap`); None if the

@@ -54,7 +54,9 @@ from .schemes import GENERIC_SCHEME, Scheme
 from .systems import PeriodicStepData, SecondOrderSystem, System
 
 __all__ = [
+    "Evaluation",
     "PeriodMap",
+    "PeriodicNewton",
     "PeriodicOrbit",
     "PeriodicProblem",
     "ShootingError",
