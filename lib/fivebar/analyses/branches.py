@@ -31,8 +31,9 @@ The glue between the linkage (:class:`fivebar.description.setup.Setup`, the peri
 
 Every function here takes its method by name from the engine (``method=``), through one
 problem object (:class:`fivebar.analyses.orbits.OrbitProblem`): a new method is a module and
-an entry of the registry, and a method that cannot serve a function is refused there.  It lives here, above both the
-  solvers and the report, so that the solvers need nothing of the branches.
+an entry of the registry, and a method that cannot serve a function is refused there.
+:func:`steady_state` lives here, above both the solvers and the report, so that the solvers need
+nothing of the branches.
 """
 
 from __future__ import annotations
