@@ -433,34 +433,36 @@ def _shooting(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None) ->
         return _newton_orbit(setup, u0, v0, tol, max_iter, monodromy)
     except (SteadyStateError, NewtonConvergenceError) as first:
         dyn, scheme, s = _problem(setup)
-        cold = u0 is None and v0 is None
-        if scheme.rho_infinity >= 1.0:  # no march settles without the scheme's dissipation
-            if cold:
+        try:
+            return _settled_orbit(dyn, scheme, s, u0, v0, tol, max_iter, first)
+        except (SteadyStateError, NewtonConvergenceError):
+            if u0 is None and v0 is None:  # a cold start
                 return _from_coarser(s, tol, max_iter, first)
             raise
-        if cold:
-            u0, v0 = _initial_state(dyn)
-        elif u0 is None or v0 is None:
-            us, vs = _initial_state(dyn)
-            u0 = us if u0 is None else u0
-            v0 = vs if v0 is None else v0
-        try:
-            u, v, k, change = _settle(dyn, scheme, np.asarray(u0, float), np.asarray(v0, float), _SETTLE_TOL,
-                                      _SETTLE_PERIODS)
-        except (SteadyStateError, NewtonConvergenceError) as exc:
-            if cold:
-                return _from_coarser(s, tol, max_iter, first)
-            raise first from exc
-        try:
-            out = _newton_orbit(s, u, v, tol, max_iter)
-        except (SteadyStateError, NewtonConvergenceError) as second:
-            if cold:
-                return _from_coarser(s, tol, max_iter, first)
-            raise SteadyStateError(
-                f"{first}; then a march of {k} periods from the same start (last relative change over a period "
-                f"{change:.2e}) and shooting from there failed too: {second}") from second
-        out.periods += k
-        return out
+
+
+def _settled_orbit(dyn, scheme, setup, u0, v0, tol, max_iter, first: Exception) -> SteadyState:
+    """:func:`_shooting`'s march from the start that Newton's method failed from (``first``, raised
+    again where the scheme has no dissipation to settle with), then Newton's method from there."""
+    if scheme.rho_infinity >= 1.0:
+        raise first
+    if u0 is None or v0 is None:
+        us, vs = _initial_state(dyn)
+        u0 = us if u0 is None else u0
+        v0 = vs if v0 is None else v0
+    try:
+        u, v, k, change = _settle(dyn, scheme, np.asarray(u0, float), np.asarray(v0, float), _SETTLE_TOL,
+                                  _SETTLE_PERIODS)
+    except (SteadyStateError, NewtonConvergenceError) as exc:
+        raise first from exc
+    try:
+        out = _newton_orbit(setup, u, v, tol, max_iter)
+    except (SteadyStateError, NewtonConvergenceError) as second:
+        raise SteadyStateError(
+            f"{first}; then a march of {k} periods from the same start (last relative change over a period "
+            f"{change:.2e}) and shooting from there failed too: {second}") from second
+    out.periods += k
+    return out
 
 
 def _from_coarser(setup: Setup, tol, max_iter, first: Exception) -> SteadyState:
