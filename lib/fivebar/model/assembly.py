@@ -320,13 +320,19 @@ class Model:
         rigid crank, a driven slider) or turns with a clamped crank root under a non-uniform
         drive are eliminated, but their rigid acceleration loads the elements they belong to:
         :math:`-\mathbf M_{ke}\ddot{\mathbf u}_{r,e}`, with :math:`\mathbf M_{ke}` the consistent
-        mass between the kept and the eliminated DOFs of each element.  Zero for joints on the
-        ground and for crank roots at constant speed (the paper's five-bar).  Shape
+        mass between the kept and the eliminated DOFs of each element.  Gravity
+        (``params.gravity``) is part of that field at every eliminated translation, on the
+        ground too: the weight of an element is :math:`\mathbf M_e` times the field
+        :math:`g\,\mathbf e_y` on *all* its translations (the translations' shape functions sum
+        to one), so leaving out the eliminated ones would drop the share of the weight near
+        each pin, a share that vanishes only as the mesh is refined.  Zero without gravity for
+        joints on the ground and for crank roots at constant speed (the paper's five-bar).  Shape
         ``(..., n)`` (N, N m); (2.7)'s right-hand side is :math:`-\mathbf M\ddot{\mathbf u}_r`
         plus this.
         """
         shape = np.shape(state.angle[self.elements[0].link])
         out = np.zeros(shape + (self.n,))
+        grav = self.params.gravity
         for el, beta in zip(self.elements, self.element_angles(state.angle)):
             a = np.zeros(shape + (8,))
             moving = False
@@ -339,9 +345,10 @@ class Model:
                 joint = self.linkage.fe_ends(el.link)[0 if first else 1]
                 if el.dofs[loc] < 0 or el.dofs[loc + 1] < 0:
                     acc = state.acc[joint]
+                    ax, ay = acc[..., 0], acc[..., 1] + grav  # gravity along -y: the field +g on y, as in (2.7)
                     phi = el.frames[node]
                     c, sn = np.cos(phi), np.sin(phi)
-                    comp = (acc[..., 0] * c + acc[..., 1] * sn, -acc[..., 0] * sn + acc[..., 1] * c)
+                    comp = (ax * c + ay * sn, -ax * sn + ay * c)
                     for k in (0, 1):
                         if el.dofs[loc + k] < 0 and np.any(comp[k]):
                             a[..., loc + k] = comp[k]

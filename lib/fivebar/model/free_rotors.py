@@ -343,6 +343,7 @@ class FlexibleLinkage:
         self._pins = pins
         # the inputs' absolute-rate terms, constant in the configuration
         extra = np.zeros((nu + N, nu + N))
+        self._weights: dict[int, tuple[float, float]] = {}  # rigid crank -> its mass and centre-of-mass arm
         rig = None
         for i, (joint, motor) in enumerate(drives):
             if motor is not None:
@@ -354,8 +355,10 @@ class FlexibleLinkage:
             elif i in pins:  # a rigid crank: its own inertia about the pivot (its pin's mass is the model's)
                 rig = rig or rigid_inertia(params, s)
                 link = self._crank_links[i]
-                L = lk.link(link).length
-                extra[i, i] = rig.link_inertia[link] + rig.link_mass[link] * (rig.link_com[link] * L) ** 2
+                k = lk.link(link)
+                arm = rig.link_com[link] * k.length - (0.0 if k.start == joint else k.length)  # pivot -> centre of mass
+                self._weights[i] = (rig.link_mass[link], arm)  # along the link's start -> end direction
+                extra[i, i] = rig.link_inertia[link] + rig.link_mass[link] * arm ** 2
         self._M_extra = T.T @ extra @ T
         self.rotor = tuple(range(N))
         self.crank = tuple(i if (i not in motor_of) else col[root[i]] for i in range(N))
@@ -454,6 +457,10 @@ class FlexibleLinkage:
         r"""The load of the nominal rigid motion on p, -M_p a_r, shape ``(..., n)`` (N, N m):
         ``inertial_load(theta1, omega1, alpha1, theta4, omega4, alpha4)``.
 
+        The literal model's load of its eliminated DOFs
+        (:meth:`~fivebar.model.assembly.Model.prescribed_load`: with gravity, the weight's share at
+        the ground pins) is added through :math:`\mathbf T_u^\top`, and with gravity a rigid
+        crank's own weight, which no element carries, as a torque on its input.
         A rigid crank's pin moves by :math:`L\mathbf n(\beta)` per radian of the crank, a map
         that turns with it, so the pin's centripetal acceleration is not of that form: its load,
         :math:`-\mathbf T_u^\top\mathbf M_u\,\mathbf r` with :math:`\mathbf r` the part of the
@@ -463,11 +470,17 @@ class FlexibleLinkage:
         th = self._angles(laws[0::3])
         M = self.matrices(*th)[0]
         F = -np.einsum("...ij,...j->...i", M, a)
+        st = rigid_state(self.params, *laws)
+        Tu = self._tu(th)
+        extra = self.model.prescribed_load(st)  # the eliminated DOFs' share: gravity at the ground pins
+        if np.any(extra):
+            F = F + np.einsum("...ji,...j->...i", Tu, extra)
+        g = self.params.gravity
+        for i, (mass, arm) in self._weights.items():  # a rigid crank's own weight (not in the elements)
+            F[..., i] -= mass * g * arm * np.cos(st.angle[self._crank_links[i]])
         if not self._pins:
             return F
-        st = rigid_state(self.params, *laws)
         full = self.model.rigid_acceleration(st)  # the literal model's field
-        Tu = self._tu(th)
         r = full - np.einsum("...ij,...j->...i", Tu, a)
         mask = np.zeros(self.model.n, bool)
         for (ix, iy), *_ in self._pins.values():

@@ -188,7 +188,7 @@ def _closed_loop(setup, servo, damping, reference) -> _ClosedLoop:
         om, Pe = fl.modes(M[k], K[k], Phi[k])
         C[k] = fl.damping(M[k], om, Pe)
     tau_ff = feedforward(params, t)
-    F = -np.einsum("kij,kj->ki", M, fl.rigid_acceleration(*laws)) if not fl._pins else fl.inertial_load(*laws)
+    F = fl.inertial_load(*laws)
     F = F + tau_ff @ fl.B.T
     Gs = servo.gains(fl)
     r = fl.inputs
