@@ -420,6 +420,23 @@ def test_gravity_is_not_scaled_with_the_speed():
     assert np.abs(d.step_data.F - F).max() <= 1e-12 * np.abs(F).max()
 
 
+def test_stiffness_damping_from_the_cache_is_the_speed_s_own():
+    """Stiffness (Kelvin-Voigt) damping adds beta Y_b to K, a term of the links' turning frames
+    linear in the speed, with beta = 2 zeta / omega_1 independent of it: the cache holds it at
+    1 rad/s and scales it.  The step data at 300 r/min, built after 150 r/min filled the cache,
+    must equal sampling at 300 r/min (a cache that kept the first speed's K, or scaled the term
+    with the speed's square, is off by the size of the term, 5e-6 of K's largest entry here, far above
+    round-off)."""
+    p = load_params().replace(damping_model="stiffness", bending_depth=0.002)
+    clear_cache()
+    LinkageDynamics(Setup(p, crank_speed_rpm=150, steps_per_period=32, motors=False))
+    d = LinkageDynamics(Setup(p, crank_speed_rpm=300, steps_per_period=32, motors=False))
+    assert d._key is not None  # served by the cache
+    fresh = d._sample(d.t)
+    for name, X, ref in zip("MCKF", (d.step_data.M, d.step_data.C, d.step_data.K, d.step_data.F), fresh):
+        assert np.abs(X - ref).max() <= 1e-13 * np.abs(ref).max(), name
+
+
 def test_shooting_converging_as_it_leaves_the_newton_picard_basis():
     """Above 32 DOFs shooting starts with Newton on the lowest modes and Picard's iteration on
     the rest, and goes over to Newton on every direction when an iteration reduces the residual

@@ -169,16 +169,19 @@ class LinkageDynamics:
 
         At constant crank speed the step times k T / S meet the same crank angles at every
         speed, so M, K, the frozen modes and C do not depend on the speed, and F = -M u_r''
-        scales with its square (without gravity, which is not scaled: a set-up with gravity, an
-        external force or stiffness damping is sampled afresh).  The cache key is the parameter set with the speed taken out,
-        S, the mesh and the motors (no external force P); it holds the step data at 1 rad/s
-        (read-only arrays), and this object's step data is that one at the speed
+        scales with its square (without gravity, which is not scaled: a set-up with gravity or
+        an external force is sampled afresh).  Stiffness damping adds to K the term
+        :math:`\beta\mathbf Y_b` of the links' turning frames (:meth:`_bending`), linear in the
+        speed (:math:`\beta = 2\zeta/\omega_1` of the frozen structure does not depend on it):
+        the cache holds that term at 1 rad/s beside the rest and scales it.  The
+        cache key is the parameter set with the speed taken out, S, the mesh and the motors (no
+        external force P); it holds the step data at 1 rad/s (read-only arrays), and this
+        object's step data is that one at the speed
         (:meth:`~fivebar.numerics.systems.PeriodicStepData.with_force`: the stored M, C, K themselves,
-        checked once, and F scaled to the speed).
+        checked once, and F scaled to the speed; with stiffness damping K is made afresh).
         """
-        if self._P is not None or self.params.damping_model == "stiffness" or self.params.gravity != 0.0:
-            # (stiffness damping: K holds a term linear in the speed; gravity: a part of F that
-            # does not scale with the speed)
+        if self._P is not None or self.params.gravity != 0.0:
+            # (gravity: a part of F that does not scale with the speed)
             return PeriodicStepData(*self._sample(t), t0=0.0, period=self.period)
         p = self.params
         key = (_SAMPLES, speed_free, self.steps_per_period, elements_per_link, bool(motors))
@@ -188,18 +191,27 @@ class LinkageDynamics:
             return PeriodicStepData(*self._sample(t), t0=0.0, period=self.period)
         self._key = key
         self._free = speed_free
-        W2 = p.crank_speed_rad_s ** 2
+        W = p.crank_speed_rad_s
+        stiffness = p.damping_model == "stiffness"
 
         def make():
-            hit = self._nested(key)
+            hit = None if stiffness else self._nested(key)  # (the halves of a stiffness-damped set: sampled afresh)
             if hit is None:
-                M, C, K, F = self._sample(self._free_times(), speed_free)
+                M, C, K, F, KY = self._sample(self._free_times(), speed_free, split=True)
                 for X in (M, C, K):
                     X.flags.writeable = False
-                hit = (M, C, K, F / speed_free.crank_speed_rad_s ** 2)
-            return PeriodicStepData(*hit, t0=0.0, period=2.0 * np.pi)
+                W0 = speed_free.crank_speed_rad_s
+                hit = (M, C, K, F / W0 ** 2)
+            unit = PeriodicStepData(*hit, t0=0.0, period=2.0 * np.pi)
+            if stiffness:
+                unit.speed_stiffness = KY / W0  # beta Y_b at 1 rad/s
+                unit.speed_stiffness.flags.writeable = False
+            return unit
         unit = STORE.get(key, make)
-        return unit.with_force(unit.F * W2, self.period)
+        if stiffness:
+            return PeriodicStepData(unit.M, unit.C, np.ascontiguousarray(unit.K + W * unit.speed_stiffness),
+                                    unit.F * W ** 2, t0=0.0, period=self.period)
+        return unit.with_force(unit.F * W ** 2, self.period)
 
     def _free_times(self) -> NDArray:
         """The S step times of one period of the speed-free parameter set (the sample cache's
@@ -246,9 +258,11 @@ class LinkageDynamics:
             X.flags.writeable = False
         return tuple(out)
 
-    def _sample(self, t: NDArray, params: Params | None = None) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    def _sample(self, t: NDArray, params: Params | None = None, split: bool = False) -> tuple[NDArray, ...]:
         """M, C, K, F at the times ``t`` of ``params`` (default this set-up's; the cache samples
-        the speed-free set, whose matrices are the same and whose F scales with the speed)."""
+        the speed-free set, whose matrices are the same and whose F scales with the speed).
+        ``split=True`` gives (M, C, K, F, KY): K without the stiffness damping's term
+        :math:`\beta\mathbf Y_b`, linear in the speed, and that term (None with modal damping)."""
         params = self.params if params is None else params
         laws = crank_laws(params, t)
         state = rigid_state(params, *laws)
@@ -263,17 +277,20 @@ class LinkageDynamics:
             F = np.ascontiguousarray(F + extra)
         if self._P is not None:
             F = F + np.array([np.asarray(self._P(ti), float) for ti in np.atleast_1d(t)]).reshape(F.shape)
+        KY = None
         if params.damping_model == "stiffness":
             beta = self.stiffness_damping_time
             Kb, Yb = (X[..., k[:, None], k[None, :]] for X in self._bending(laws, state))
             C = np.ascontiguousarray(beta * Kb)
-            K = np.ascontiguousarray(K + beta * Yb)
+            KY = beta * Yb
+            if not split:
+                K = np.ascontiguousarray(K + KY)
         else:
             try:
                 C = modal_damping(M, K, params.damping_ratio)
             except ComputationError as exc:
                 raise _unresolved_model(params, exc) from None
-        return M, C, K, F
+        return (M, C, K, F, KY) if split else (M, C, K, F)
 
     def _bending(self, laws, state) -> tuple[NDArray, NDArray]:
         """The stiffness of the bending (and of the motor shafts) ``Kb`` and ``Yb = sum_e R_e^T
