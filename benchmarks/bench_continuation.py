@@ -26,8 +26,15 @@ beside the monodromy period on a second core (the library's default where there 
 one after the other, as "<model>, 2 thread(s)" and "<model>, 1 thread(s)": the same branch to
 the bit (the counts say so), so the ratio of the times is the second core's gain.
 
+``--case chapter13`` times chapter 13's continuation instead (issue 33: at most 10 s): the
+flexible orientation with stiffness damping, S = 200, the nonlinear model from 150 to 240 r/min with
+a budget of 240 points, as the chapter runs it; ``--repeat N`` runs it N times, the library's
+cache cleared before each (each run samples its step data afresh, as a chapter's one run does),
+and prints every time, their median and the folds of each run.
+
 Usage: python benchmarks/bench_continuation.py [--out benchmarks/results/continuation.json]
        [--steps S] [--points 200] [--models linear,nonlinear] [--threads 2,1]
+       python benchmarks/bench_continuation.py --case chapter13 [--repeat 3] [--out FILE]
 """
 
 from __future__ import annotations
@@ -92,12 +99,40 @@ def run(model: str, steps: int | None, points: int) -> dict:
     return out
 
 
+def chapter13(repeat: int) -> dict:
+    """Chapter 13's continuation, ``repeat`` times from a cleared cache: times, median, folds."""
+    import statistics
+
+    import fivebar
+    from fivebar.analyses.branches import follow
+    from fivebar.cache import clear_cache
+
+    p = fivebar.load_params().replace(bending_depth=0.002, damping_model="stiffness")
+    s = fivebar.Setup(p, crank_speed_rpm=150, motors=False, nonlinear=True, steps_per_period=200)
+    runs = []
+    for _ in range(repeat):
+        clear_cache()
+        t = time.perf_counter()
+        br = follow(s, 240, points=240)
+        wall = time.perf_counter() - t
+        b = br.branch
+        runs.append({"time_s": round(wall, 2), "points": len(b.points), "stop": b.stop,
+                     "newton_per_point": round(float(b.newton.mean()), 2), "rejected": b.stats["rejected"],
+                     "periods": b.stats["periods"], "monodromies": b.stats["monodromies"],
+                     "folds_rpm": sorted(round(x.p, 5) for x in br.bifurcations if x.kind == "fold")})
+    times = [r["time_s"] for r in runs]
+    return {"case": "chapter 13: flexible orientation, stiffness damping, S = 200, nonlinear, 150-240 r/min, "
+                    "240 points", "budget_s": 10.0, "median_s": round(statistics.median(times), 2), "runs": runs}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--out")
     ap.add_argument("--steps", type=int, default=None, help="S (default: the parameter file's)")
     ap.add_argument("--points", type=int, default=200)
     ap.add_argument("--models", default="linear,nonlinear")
+    ap.add_argument("--case", default="benchmark", choices=("benchmark", "chapter13"))
+    ap.add_argument("--repeat", type=int, default=3, help="runs of the chapter13 case")
     ap.add_argument("--threads", default="2", help="comma-separated: 2 (the forward difference's period "
                     "beside the monodromy's where there are two cores, the library's default), 1 (one "
                     "after the other); each model is run with each, in this process")
@@ -109,7 +144,9 @@ def main() -> None:
     from fivebar.analyses.branches import LinkagePeriodMap
     steady_state(fivebar.Setup(fivebar.load_params(), motors=False))  # warm the compiled kernels
     threads = [int(t) for t in a.threads.split(",")]
-    for model in a.models.split(","):
+    if a.case == "chapter13":
+        res["chapter13"] = chapter13(a.repeat)
+    for model in (a.models.split(",") if a.case == "benchmark" else ()):
         for t in threads:
             LinkagePeriodMap.concurrent = t > 1  # the map's permission (the library's default: True)
             res[model if t == 2 and len(threads) == 1 else f"{model}, {t} thread(s)"] = run(model, a.steps, a.points)
