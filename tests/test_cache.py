@@ -120,7 +120,7 @@ def test_sampled_matrices_from_the_store_are_those_sampled_afresh(monkeypatch):
     fresh = _arrays(LinkageDynamics(Setup(P, steps_per_period=44, **kw)))
     calls = []
     real = LinkageDynamics._sample
-    monkeypatch.setattr(LinkageDynamics, "_sample", lambda self, t, params=None: calls.append(np.size(t)) or real(self, t, params))
+    monkeypatch.setattr(LinkageDynamics, "_sample", lambda self, t, params=None, **kw: calls.append(np.size(t)) or real(self, t, params, **kw))
     for other, sampled in ((88, []), (22, [22])):  # from 2 S: none sampled; from S / 2: the S / 2 new ones (S = 44: S / 2 >= 2 m + 1)
         clear_cache()
         LinkageDynamics(Setup(P, steps_per_period=other, **kw))
