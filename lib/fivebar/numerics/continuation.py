@@ -641,6 +641,10 @@ def continuation(
         yk, tk = y, t
         recovery = ""
         halved = False
+        bend = None  # the predictor's second-order term per ds^2: the tangent's turn over the last step, across tk
+        if len(pts) > 1 and pts[-1].step > 0:
+            c = (tk - pts[-2].tangent) / pts[-1].step
+            bend = 0.5 * (c - (c @ tk) * tk)
         while True:
             prob.purpose = "corrector"
             before = dict(prob.stats["by purpose"]["corrector"])
@@ -648,11 +652,7 @@ def continuation(
             yp = yk + h * tk
             if (yp[-1] * p_scale - p_end) * sgn > 0 and (yk[-1] * p_scale - p_end) * sgn < 0 and tk[-1] * sgn > 0:
                 target = p_end / p_scale  # the last point: on p = p_end
-            start = None
-            if len(pts) > 1 and target is None and pts[-1].step > 0:
-                # second order: the tangent's turn over the last step continued (curvature c, its part across tk)
-                c = (tk - pts[-2].tangent) / pts[-1].step
-                start = yp + 0.5 * h * h * (c - (c @ tk) * tk)
+            start = yp + h * h * bend if bend is not None and target is None else None
             got = _step(prob, yk, tk, h, Jc, tol, max_newton, target, start=start)
             if got is not None:
                 break
