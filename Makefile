@@ -42,8 +42,9 @@ TEST_JOBS ?= 2
 ## workers (2 cores, 2 workers: 1 each).  Left to OpenBLAS's default, each of the two workers
 ## started a thread per core, four busy threads on two cores: measured on 2026-12-03 (idle
 ## machine, nbval of every notebook), 3 min 24 s with the default against 2 min 06 s with one
-## thread a worker, the same 420 cells passing.  Every stored output is also checked with one
-## thread in a single process (test-notebooks-other), so a thread count never hides a digit.
+## thread a worker, the same 420 cells passing.  Used by the first nbval pass only: tests/ was
+## not measured side by side (a clean clone's tests/ took 8 min 37 s with it against 5 min 56 s
+## at the last stop, on a machine whose unchanged generic pass also took a minute longer).
 WORKER_THREADS ?= $(shell n=$$(nproc 2>/dev/null || echo 1); j=$(TEST_JOBS); [ "$$j" -gt 0 ] 2>/dev/null || j=1; \
 	t=$$(( n / j )); [ $$t -ge 1 ] && echo $$t || echo 1)
 THREADS := OPENBLAS_NUM_THREADS=$(WORKER_THREADS) OMP_NUM_THREADS=$(WORKER_THREADS) MKL_NUM_THREADS=$(WORKER_THREADS)
@@ -54,12 +55,12 @@ test: venv
 	$(BIN)/python book/_ext/fivebar_build.py seed-cache
 	$(MAKE) --no-print-directory pdfs-if-tex
 	$(MAKE) --no-print-directory -j$(BUILD_JOBS) -Otarget book book-student-html
-	$(THREADS) $(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q --durations=25
+	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q --durations=25
 
 ## make check: the fast unit tests (not marked slow; no notebooks, no book, no browser), for the
 ## edit-test loop: about a minute on 2 cores.  `make test` runs everything.
 check: venv
-	$(THREADS) $(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q -m "not slow" \
+	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q -m "not slow" \
 	--ignore=tests/test_browser.py --ignore=tests/test_editions.py --ignore=tests/test_pdf.py
 
 ## make test-unit: only the library's unit tests (no book, no browser)
