@@ -25,7 +25,12 @@ import pytest
 
 LIB = str(Path(__file__).resolve().parents[1] / "lib")
 
+#: Every child script starts here.  Ctrl-C as in a terminal, whoever started the tests: a process
+#: started in the background of a non-interactive shell inherits SIGINT ignored, and Python then
+#: installs no KeyboardInterrupt handler (4 of these tests failed so, for that reason alone, on
+#: 2026-12-03).
 PRELUDE = textwrap.dedent("""
+    import signal; signal.signal(signal.SIGINT, signal.default_int_handler)
     import json, sys, time
     sys.path.insert(0, sys.argv[1])
     import fivebar, fivebar.analyses.sweep as sw
@@ -76,14 +81,8 @@ WRITER = PRELUDE + textwrap.dedent("""
 pytestmark = pytest.mark.slow  # subprocesses and signals: make test runs them, make check does not
 
 
-#: Ctrl-C as in a terminal, whoever started the tests: a process started in the background of a
-#: non-interactive shell inherits SIGINT ignored, and Python then installs no KeyboardInterrupt
-#: handler in the child (4 of these tests failed so, for that reason alone, on 2026-12-03).
-TERMINAL_SIGINT = "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
-
-
 def _run_and_signal(code: str, args: list[str], sig: int) -> tuple[subprocess.Popen, list[str], float, int, float]:
-    proc = subprocess.Popen([sys.executable, "-c", TERMINAL_SIGINT + code, LIB, *args], stdout=subprocess.PIPE,
+    proc = subprocess.Popen([sys.executable, "-c", code, LIB, *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, start_new_session=True)
     done = 0
     lines = []
@@ -157,7 +156,7 @@ def test_ctrl_c_on_a_parallel_sweep_ends_with_its_one_line(tmp_path):
     in thread ... InvalidStateError: CANCELLED' in 3 of 3 runs.)"""
     assert UNCAUGHT != SWEEP
     log = tmp_path / "points.log"
-    proc = subprocess.Popen([sys.executable, "-c", TERMINAL_SIGINT + UNCAUGHT, LIB, str(log)], stdout=subprocess.PIPE,
+    proc = subprocess.Popen([sys.executable, "-c", UNCAUGHT, LIB, str(log)], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, start_new_session=True)
     done = 0
     while done < 2:
@@ -181,7 +180,7 @@ def test_ctrl_c_on_a_parallel_sweep_ends_with_its_one_line(tmp_path):
 
 @pytest.fixture
 def terminal_sigint():
-    """This process's Ctrl-C as in a terminal for one test (see TERMINAL_SIGINT), restored after."""
+    """This process's Ctrl-C as in a terminal for one test (as PRELUDE does in the children), restored after."""
     before = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         yield
