@@ -216,7 +216,9 @@ def _fold_condition_reference(guess, zeta=ZETA, alpha=ALPHA, F=FORCE):
         xT, P = flow(z[:2], z[2])
         return np.r_[xT - z[:2], np.linalg.det(P - np.eye(2))]
     sol = root(eqs, guess, tol=1e-13)
-    assert sol.success
+    # judged by its residual: MINPACK's step test at tol = 1e-13 sits at the round-off, and whether
+    # it reports success ("not making good progress" otherwise) depends on the BLAS kernels
+    assert np.abs(eqs(sol.x)).max() < 1e-10, sol.message
     return sol.x
 
 

@@ -586,7 +586,7 @@ def _newton_orbit(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None
 
     try:
         out = newton_periodic(evaluate, x, first, lambda W: _newton_step(W, V, D), tol=tol, max_iter=max_iter,
-                              solve=solve, given=given, linear=linear, roundoff=_ROUNDOFF, widen=widen)
+                              solve=solve, given=given, linear=linear, widen=widen)
     except ShootingError as exc:
         if getattr(exc, "kind", None) == "no step":
             raise SteadyStateError(f"{exc}; " + _remedy(scheme, dyn.steps_per_period)) from None
@@ -605,10 +605,6 @@ def _newton_orbit(setup, u0, v0, tol, max_iter, monodromy: NDArray | None = None
         st._cache["monodromy"] = W * D[None, :]
     return st
 
-
-#: a residual that no Newton step reduces is accepted when it is within this factor of the tolerance:
-#: the round-off floor of the period map (the paper's rule at S = 3200 stopped at 1.006e-10 against 1e-10)
-_ROUNDOFF = 10.0
 
 #: shooting takes the whole monodromy matrix up to this many DOFs, and above them (with a
 #: dissipative scheme) Newton's method on the lowest frozen modes and Picard's on the rest
