@@ -596,7 +596,7 @@ def shoot(period_map: PeriodMap, x0: ArrayLike, p: float | None = None, tol: flo
     squares sense in the scaled variables ``x / scale`` (singular values below 1e-13 of the
     largest dropped: a multiplier at 1 leaves the orbit undetermined along its eigenvector,
     see :mod:`fivebar.numerics.continuation`); a step that does not reduce the residual is halved, up to
-    10 times.  Where no halved step reduces a residual within :data:`ROUNDOFF` times ``tol``, the
+    10 times.  Where no halved step reduces a residual within ``ROUNDOFF`` (10) times ``tol``, the
     iterate is taken as converged (the map's round-off floor, which depends on the BLAS kernels).
 
     Parameters
