@@ -123,7 +123,7 @@ def test_the_generic_modules_import_nothing_of_the_linkage():
     code = ("import sys, fivebar.numerics.periodic, fivebar.numerics.continuation; "
             "bad = [m for m in sys.modules if m.startswith('fivebar.') and m not in "
             "('fivebar.numerics', 'fivebar.numerics.periodic', 'fivebar.numerics.continuation', "
-            "'fivebar.numerics.newmark', 'fivebar.numerics.schemes', 'fivebar.numerics.systems', "
+            "'fivebar.numerics.newmark', 'fivebar.numerics.blas', 'fivebar.numerics.schemes', 'fivebar.numerics.systems', "
             "'fivebar.numerics.modal_equations', "  # the data types of (3.4) (modal_period_map): generic too
             "'fivebar.errors', 'fivebar.cache')]; "
             "print(bad); assert not bad, bad")

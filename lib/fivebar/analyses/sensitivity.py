@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 from tqdm import tqdm
 
 from ..errors import FivebarError, InputError, number, plain, read_toml
-from ..numerics.newmark import _blas_threads
+from ..numerics.blas import blas_threads
 from ..description.params import Params, load_params
 from ..description.setup import Setup, as_setup
 
@@ -362,7 +362,7 @@ def _values_text(inputs: Sequence[UncertainInput], u: NDArray) -> str:
 def _evaluate_rows(out: Callable, setup: Setup, inputs: tuple[UncertainInput, ...], U: NDArray) -> NDArray:
     """The output at each row of U (one BLAS thread); a top-level function, for worker processes."""
     y = np.empty(len(U))
-    with _blas_threads(1):
+    with blas_threads(1):
         for k, u in enumerate(U):
             where = "at " + _values_text(inputs, u)
             try:
@@ -552,7 +552,7 @@ def morris(out: str | Callable[[Setup], float], setup: Setup | Params,
     """
     s, inp = _linkage_inputs(setup, inputs)
     model = _LinkageModel(out, s, inp, executor, progress, chunk)
-    with _blas_threads(1):
+    with blas_threads(1):
         ref = _scalar(model.out(s), model.out, "at the nominal set-up")
     return morris_indices(model, inp, trajectories=trajectories, levels=levels, seed=seed, reference=ref)
 

@@ -116,7 +116,6 @@ G. M. Hulbert, J. Appl. Mech. 60 (1993) 371-375.
 
 from __future__ import annotations
 
-import contextlib
 import math
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -125,13 +124,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import FivebarError, InputError, InputTypeError, array, choice, memory, number
+from .blas import blas_threads as _limit_blas
 from .schemes import GENERIC_SCHEME, Scheme, _check_scheme
 from .systems import PeriodicStepData, SecondOrderSystem, _check_system, _checked, _new_lu_cache, _nonlinear_at
 
-try:  # optional: limit BLAS threads inside the time loop (see ``integrate(blas_threads=...)``)
-    from threadpoolctl import ThreadpoolController
-except ImportError:  # pragma: no cover - the pinned environment has it
-    ThreadpoolController = None
 
 __all__ = [
     "MAX_ITER",
@@ -165,24 +161,6 @@ class NewtonConvergenceError(FivebarError, RuntimeError):
         self.t = t
         self.residual = residual
         self.iterations = iterations
-
-
-
-_CONTROLLER: Any = None
-
-
-def _blas_threads(k: int | None) -> contextlib.AbstractContextManager[Any]:
-    """Context limiting the BLAS thread pools to ``k`` threads (no-op if None or unavailable)."""
-    global _CONTROLLER
-    if k is None or ThreadpoolController is None:
-        return contextlib.nullcontext()
-    if _CONTROLLER is None:
-        # the controller sees only the BLAS libraries loaded when it is made: load scipy's
-        # (used by the LAPACK calls of the Python loop and the BLAS calls of the compiled one)
-        import scipy.linalg.cython_blas  # noqa: F401
-
-        _CONTROLLER = ThreadpoolController()
-    return _CONTROLLER.limit(limits=int(k), user_api="blas")
 
 
 
@@ -352,7 +330,7 @@ def integrate(
     nstore = nsteps + 1 if store == "all" else 2
     memory(8.0 * nstore * (3 * n + 1), f"the stored states of nsteps = {nsteps} steps of {n} DOFs",
            "give fewer nsteps or store='last'")
-    with _blas_threads(blas_threads):
+    with _limit_blas(blas_threads):
         return _march(system, u0, v0, t0, dt, nsteps, scheme, a0, step_data, rtol, xtol, atol,
                       max_iter, newton, sensitivity, store, directions)
 

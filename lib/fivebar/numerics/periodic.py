@@ -49,7 +49,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ComputationError, InputError, checked
 from .modal_equations import Harmonic, ModalSystem, Parametric, _check_inputs
-from .newmark import NewtonConvergenceError, _blas_threads, integrate
+from .blas import blas_threads
+from .newmark import NewtonConvergenceError, integrate
 from .schemes import GENERIC_SCHEME, Scheme
 from .systems import PeriodicStepData, SecondOrderSystem, System
 
@@ -426,7 +427,7 @@ def _one_blas_thread(func: Callable[..., Any]) -> Callable[..., Any]:
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        with _blas_threads(1):
+        with blas_threads(1):
             return func(*args, **kwargs)
 
     return wrapper

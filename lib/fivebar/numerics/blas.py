@@ -1,0 +1,40 @@
+"""The BLAS thread pools: limited where the library's dense problems are small.
+
+The linkage's matrices are tens to a few hundred rows; a threaded BLAS (OpenBLAS's default is a
+thread per core) spends more time handing such problems out than solving them, and where
+several processes share the cores (a pool of chapter reruns, test workers) the threads contend.
+Measured on a 2-core machine (AMD EPYC, OpenBLAS 0.3, 2026-12-04): the frozen modes of
+``resonance_speeds`` (one case of chapter 07) 0.85 s with the default threads against 0.31 s
+with one.  The limit also makes the results independent of the thread count, which can change
+the last bits of a threaded reduction.
+
+Imports nothing of the linkage.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from typing import Any
+
+try:  # the pinned environment has it; without it the limits are no-ops
+    from threadpoolctl import ThreadpoolController
+except ImportError:  # pragma: no cover
+    ThreadpoolController = None
+
+__all__ = ["blas_threads"]
+
+_CONTROLLER: Any = None
+
+
+def blas_threads(k: int | None) -> contextlib.AbstractContextManager[Any]:
+    """Context limiting the BLAS thread pools to ``k`` threads (no-op if None or unavailable)."""
+    global _CONTROLLER
+    if k is None or ThreadpoolController is None:
+        return contextlib.nullcontext()
+    if _CONTROLLER is None:
+        # the controller sees only the BLAS libraries loaded when it is made: load scipy's
+        # (used by the LAPACK calls of the Python loop and the BLAS calls of the compiled one)
+        import scipy.linalg.cython_blas  # noqa: F401
+
+        _CONTROLLER = ThreadpoolController()
+    return _CONTROLLER.limit(limits=int(k), user_api="blas")
