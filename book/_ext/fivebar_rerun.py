@@ -32,7 +32,8 @@ or the names ``09_figure6``):
    and is reported as a warning, rendered as plain text.
 
 Chapters run in parallel (``--jobs``, default 2: the kernels are separate processes, and the
-numba cache is shared).  Each run's wall time and CPU time (the kernel and the worker processes
+numba cache is shared), each kernel with the machine's cores shared out as BLAS threads
+(``OPENBLAS_NUM_THREADS`` and its like, unless set by the caller).  Each run's wall time and CPU time (the kernel and the worker processes
 it started) are printed.  ``--each`` reruns the chapters with every file alone instead of
 layered, all chapter runs of all files in one pool of ``--jobs`` processes, the chapters that
 took longest in the book's own run first (their stored execution times): the rerun matrix of
@@ -386,6 +387,14 @@ def main(argv: list[str] | None = None) -> int:
     # every chapter of every rerun, the longest (by the book's own times) first
     order = sorted(selected, key=book_seconds, reverse=True) if len(runs) > 1 else selected
     tasks = [(name, p) for p in order for name in runs if name in only.get(p.stem, {name})]
+
+    # the machine's cores shared out among the kernels as BLAS threads (as `make test` does for nbval's
+    # workers), unless the caller set them: with OpenBLAS's default, a thread per core in each of the
+    # --jobs kernels, chapters 05 and 07 took 4 times as long on 2 cores (144 s against 37 s for
+    # both with two files, 2026-12-04)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, str(max(1, cores // args.jobs)))
 
     t0 = time.perf_counter()
     what = f"each of {len(files)} files" if args.each else ", ".join(files)

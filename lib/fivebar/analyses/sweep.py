@@ -48,6 +48,7 @@ from ..cache import STORE
 from ..errors import FivebarError, number
 from ..description.params import Params
 from ..description.setup import Setup, analysis, as_setup
+from ..numerics.blas import blas_threads
 from .modal import frequencies_along_cycle
 from .response import quasi_static
 from .orbits import OrbitProblem
@@ -214,9 +215,15 @@ def sweep_point(
     buckling check, the largest over the links), ``period (s)`` (the drive's period: a
     speed ratio that gives none is refused), ``valid`` (all three within range) and, with
     ``accuracy=True``, ``S error estimate`` (S against 2 S; one more steady state per speed).
-    A top-level function, so that it can run in worker processes.
+    A top-level function, so that it can run in worker processes; it runs with one BLAS thread
+    (:mod:`fivebar.numerics.blas`: the small dense problems of a steady state gain nothing from
+    more, and the workers of a pool would contend for the cores).
     """
-    setup = as_setup(setup)
+    with blas_threads(1):
+        return _sweep_point(as_setup(setup), links, direction, accuracy)
+
+
+def _sweep_point(setup: Setup, links, direction: str, accuracy: bool) -> dict[str, float]:
     crank_speed_rpm = setup.crank_speed_rpm
     links, direction = _check_links(links, direction, setup.params.linkage)
     st = OrbitProblem(setup).steady("shooting", "steady_state")  # the engine's method by name

@@ -7,7 +7,8 @@ make :math:`\mathbf M` ill-conditioned (eigenvalues from 1e-10 to 1): the usual 
 lowest frequencies only to about 1e-8 relative, varying with the BLAS thread count, while the
 inverse form gives them to round-off (the lowest modes are what every analysis uses).
 
-Imports nothing of the linkage (numpy and scipy only).
+Imports nothing of the linkage (numpy and scipy only).  One BLAS thread
+(:mod:`fivebar.numerics.blas`).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ComputationError, InputError
+from .blas import blas_threads
 
 __all__ = ["frozen_modes"]
 
@@ -40,6 +42,11 @@ def frozen_modes(M: ArrayLike, K: ArrayLike, n: int | None = None) -> tuple[NDAr
     if not (np.all(np.isfinite(M)) and np.all(np.isfinite(K))):
         raise ComputationError("the frozen modes cannot be computed: M or K holds entries that are not finite "
                                "(an overflow of the numbers they are made of)")
+    with blas_threads(1):  # small matrices (numerics/blas.py); results independent of the thread count
+        return _modes(M, K, N, k)
+
+
+def _modes(M: NDArray, K: NDArray, N: int, k: int) -> tuple[NDArray, NDArray]:
     try:
         if M.ndim == 2:
             mu, V = scipy.linalg.eigh(M, K, subset_by_index=(N - k, N - 1))
