@@ -41,7 +41,6 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import find_peaks
 from tqdm import tqdm
 
 from ..cache import STORE
@@ -446,6 +445,8 @@ def sweep_peaks(sweep: pd.DataFrame, column: str, prominence: float = 0.05) -> p
     """
     if column not in sweep:
         raise SweepError(f"column = {column!r} is not in the sweep: use one of {list(sweep.columns)}")
+    from scipy.signal import find_peaks  # here: scipy.signal imports scipy.stats, a second at import
+
     y = sweep[column].to_numpy(float)
     idx, props = find_peaks(y, prominence=prominence * (np.nanmax(y) - np.nanmin(y)))
     out = sweep.iloc[idx][["speed (r/min)", column]].copy()
