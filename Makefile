@@ -42,9 +42,9 @@ TEST_JOBS ?= 2
 ## workers (2 cores, 2 workers: 1 each).  Left to OpenBLAS's default, each of the two workers
 ## started a thread per core, four busy threads on two cores: measured on 2026-12-03 (idle
 ## machine, nbval of every notebook), 3 min 24 s with the default against 2 min 06 s with one
-## thread a worker, the same 420 cells passing.  Used by the first nbval pass only: tests/ was
-## not measured side by side (a clean clone's tests/ took 8 min 37 s with it against 5 min 56 s
-## at the last stop, on a machine whose unchanged generic pass also took a minute longer).
+## thread a worker, the same 420 cells passing.  Used by the first nbval pass, tests/ and
+## make check: make check alternated with and without it (idle machine, 2026-12-04) took 62 and
+## 68 s with one thread a worker against 82 and 74 s with the default.
 WORKER_THREADS ?= $(shell n=$$(nproc 2>/dev/null || echo 1); j=$(TEST_JOBS); [ "$$j" -gt 0 ] 2>/dev/null || j=1; \
 	t=$$(( n / j )); [ $$t -ge 1 ] && echo $$t || echo 1)
 THREADS := OPENBLAS_NUM_THREADS=$(WORKER_THREADS) OMP_NUM_THREADS=$(WORKER_THREADS) MKL_NUM_THREADS=$(WORKER_THREADS)
@@ -55,12 +55,12 @@ test: venv
 	$(BIN)/python book/_ext/fivebar_build.py seed-cache
 	$(MAKE) --no-print-directory pdfs-if-tex
 	$(MAKE) --no-print-directory -j$(BUILD_JOBS) -Otarget book book-student-html
-	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q --durations=25
+	$(THREADS) $(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q --durations=25
 
 ## make check: the fast unit tests (not marked slow; no notebooks, no book, no browser), for the
 ## edit-test loop: about a minute on 2 cores.  `make test` runs everything.
 check: venv
-	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q -m "not slow" \
+	$(THREADS) $(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q -m "not slow" \
 	--ignore=tests/test_browser.py --ignore=tests/test_editions.py --ignore=tests/test_pdf.py
 
 ## make test-unit: only the library's unit tests (no book, no browser)
@@ -174,8 +174,9 @@ rerun: venv
 ## first: fails on any cell error or failed physics check.  Notebooks only (no HTML pages); the
 ## matrix of outcomes (completes, says what does not apply, fails) and CPU seconds is printed and
 ## written to _build/rerun/matrix.md (book/run.md, "The rerun matrix").
-## RERUN_FILES: the files of the matrix (default all of examples/params/: all ten take about 80
-## CPU-minutes, chapters 14 and 15 half of it).  RERUN_ONLY_WITH: chapters kept to some files,
+## RERUN_FILES: the files of the matrix (default all of examples/params/; CI's matrix, chapters 14
+## and 15 with l2_damping only, took 49 CPU-minutes, 25.5 minutes on 2 cores, on 2026-12-04;
+## chapter 14 with mine.toml alone runs over 9 minutes).  RERUN_ONLY_WITH: chapters kept to some files,
 ## "NN=STEM[,STEM] ..." (CI: "14=l2_damping 15=l2_damping", every other chapter with every file).
 RERUN_FILES ?= $(wildcard examples/params/*.toml)
 RERUN_ONLY_WITH ?=
