@@ -8,13 +8,15 @@ Measured on a 2-core machine (AMD EPYC, OpenBLAS 0.3, 2026-12-04): the frozen mo
 with one.  The limit also makes the results independent of the thread count, which can change
 the last bits of a threaded reduction.
 
-Imports nothing of the linkage.
+Imports nothing of the linkage (the errors module only).
 """
 
 from __future__ import annotations
 
 import contextlib
 from typing import Any
+
+from ..errors import number
 
 try:  # the pinned environment has it; without it the limits are no-ops
     from threadpoolctl import ThreadpoolController
@@ -27,9 +29,13 @@ _CONTROLLER: Any = None
 
 
 def blas_threads(k: int | None) -> contextlib.AbstractContextManager[Any]:
-    """Context limiting the BLAS thread pools to ``k`` threads (no-op if None or unavailable)."""
+    """Context limiting the BLAS thread pools to ``k`` threads, a positive integer (no-op if None or
+    threadpoolctl is unavailable): ``with blas_threads(1): ...``."""
     global _CONTROLLER
-    if k is None or ThreadpoolController is None:
+    if k is None:
+        return contextlib.nullcontext()
+    k = number("k", k, integer=True, low=1)
+    if ThreadpoolController is None:
         return contextlib.nullcontext()
     if _CONTROLLER is None:
         # the controller sees only the BLAS libraries loaded when it is made: load scipy's
