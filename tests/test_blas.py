@@ -1,7 +1,7 @@
 """The BLAS thread limit (fivebar.numerics.blas): applied inside, restored after, bad counts refused."""
 
-import numpy as np
 import pytest
+import scipy.linalg.cython_blas  # noqa: F401  (scipy's BLAS loaded before the first count, as blas_threads loads it)
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from fivebar.errors import InputError
