@@ -33,8 +33,8 @@ or the names ``09_figure6``):
 
 Chapters run in parallel (``--jobs``, default 2: the kernels are separate processes, and the
 numba cache is shared), each kernel with the machine's cores shared out as BLAS threads
-(``OPENBLAS_NUM_THREADS`` and its like, unless set by the caller).  Each run's wall time and CPU time (the kernel and the worker processes
-it started) are printed.  ``--each`` reruns the chapters with every file alone instead of
+(``OPENBLAS_NUM_THREADS`` and its like, unless set by the caller).  Each run's wall time and
+CPU time (the kernel and the worker processes it started) are printed.  ``--each`` reruns the chapters with every file alone instead of
 layered, all chapter runs of all files in one pool of ``--jobs`` processes, the chapters that
 took longest in the book's own run first (their stored execution times): the rerun matrix of
 ``make rerun-examples``, printed and written to ``_build/rerun/matrix.md`` as a table chapter x

@@ -51,7 +51,8 @@ from ..numerics.continuation import (Branch, ContinuationError, Jump, continuati
 from ..errors import FivebarError, InputError, ValidityWarning, checked, flag, number
 from ..numerics.newmark import NewtonConvergenceError
 from ..description.params import Params
-from ..numerics.periodic import PeriodicOrbit, _one_blas_thread, shoot
+from ..numerics.blas import one_blas_thread
+from ..numerics.periodic import PeriodicOrbit, shoot
 from ..description.setup import Setup, analysis, as_setup
 from .orbits import _SPEED, ORBIT_METHODS, LinkagePeriodMap, OrbitProblem, linkage_period_map, orbit_method
 from .steady import SteadyState, _warm_start
@@ -299,7 +300,7 @@ def _scan_scale(prob: OrbitProblem, method: str, p0: float, p_end: float, count:
 
 
 @analysis
-@_one_blas_thread
+@one_blas_thread
 def follow(
     setup: Setup | Params,
     p_end: float,
@@ -490,7 +491,7 @@ def _midpoint0(dyn, u: Array, link: str) -> float:
 
 
 @analysis
-@_one_blas_thread
+@one_blas_thread
 def brute_force_diagram(
     setup: Setup | Params,
     values: ArrayLike,
@@ -579,7 +580,7 @@ class SpeedReport:
 
 
 @analysis
-@_one_blas_thread
+@one_blas_thread
 def describe_speed(setup: Setup | Params, value: float | None = None, parameter: str = _SPEED, *,
                    periods: int = 400, branch: LinkageBranch | None = None, method: str = "shooting") -> SpeedReport:
     """At one speed (or value of ``parameter``): the stable period-1 orbit, or what is found there.

@@ -47,7 +47,7 @@ from ..cache import STORE
 from ..errors import FivebarError, number
 from ..description.params import Params
 from ..description.setup import Setup, analysis, as_setup
-from ..numerics.blas import blas_threads
+from ..numerics.blas import one_blas_thread
 from .modal import frequencies_along_cycle
 from .response import quasi_static
 from .orbits import OrbitProblem
@@ -194,6 +194,7 @@ def _check_links(links, direction, linkage) -> tuple[tuple[str, ...], str]:
 
 
 @analysis
+@one_blas_thread
 def sweep_point(
     setup: Setup | Params,
     links: tuple[str, ...] | None = None,
@@ -218,11 +219,7 @@ def sweep_point(
     (:mod:`fivebar.numerics.blas`: the small dense problems of a steady state gain nothing from
     more, and the workers of a pool would contend for the cores).
     """
-    with blas_threads(1):
-        return _sweep_point(as_setup(setup), links, direction, accuracy)
-
-
-def _sweep_point(setup: Setup, links, direction: str, accuracy: bool) -> dict[str, float]:
+    setup = as_setup(setup)
     crank_speed_rpm = setup.crank_speed_rpm
     links, direction = _check_links(links, direction, setup.params.linkage)
     st = OrbitProblem(setup).steady("shooting", "steady_state")  # the engine's method by name

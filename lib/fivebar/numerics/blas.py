@@ -14,6 +14,8 @@ Imports nothing of the linkage (the errors module only).
 from __future__ import annotations
 
 import contextlib
+import functools
+from collections.abc import Callable
 from typing import Any
 
 from ..errors import number
@@ -23,7 +25,7 @@ try:  # the pinned environment has it; without it the limits are no-ops
 except ImportError:  # pragma: no cover
     ThreadpoolController = None
 
-__all__ = ["blas_threads"]
+__all__ = ["blas_threads", "one_blas_thread"]
 
 _CONTROLLER: Any = None
 
@@ -44,3 +46,18 @@ def blas_threads(k: int | None) -> contextlib.AbstractContextManager[Any]:
 
         _CONTROLLER = ThreadpoolController()
     return _CONTROLLER.limit(limits=int(k), user_api="blas")
+
+
+def one_blas_thread(func: Callable[..., Any]) -> Callable[..., Any]:
+    """Decorator: run ``func`` with the BLAS thread pools limited to one thread.
+
+    Threaded BLAS rounds differently with the number of threads; with one thread the results
+    of shooting, continuation and the frozen modes do not depend on ``OPENBLAS_NUM_THREADS`` or
+    the core count (and the small dense matrices of the linkage are faster on one thread)."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with blas_threads(1):
+            return func(*args, **kwargs)
+
+    return wrapper

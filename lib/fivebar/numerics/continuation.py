@@ -136,7 +136,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ComputationError, FivebarError, InputError, array, checked, number
-from .periodic import PeriodMap, PeriodicOrbit, floquet_multipliers, monodromy, _one_blas_thread, shoot
+from .blas import one_blas_thread
+from .periodic import PeriodMap, PeriodicOrbit, floquet_multipliers, monodromy, shoot
 
 __all__ = [
     "Bifurcation",
@@ -505,7 +506,7 @@ def _outside_nonreal(mu: NDArray[np.complex128]) -> int:
 
 
 @checked
-@_one_blas_thread
+@one_blas_thread
 def continuation(
     period_map: PeriodMap | ResidualProblem,
     x0: ArrayLike,
@@ -987,7 +988,7 @@ def _state_scale(x: NDArray, scale: ArrayLike | None) -> NDArray:
     return D
 
 
-@_one_blas_thread
+@one_blas_thread
 @checked
 def switch_period_doubling(
     period_map: PeriodMap,
@@ -1100,7 +1101,7 @@ class Settled:
 
 
 @checked
-@_one_blas_thread
+@one_blas_thread
 def settle(period_map: PeriodMap, orbit: PeriodicOrbit, p: float | None = None, *, periods: int = 400,
            scale: ArrayLike | None = None, disturbance: float = 0.01, rtol: float = 1e-4,
            tol: float = 1e-10) -> Settled:

@@ -18,11 +18,12 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ComputationError, InputError
-from .blas import blas_threads
+from .blas import one_blas_thread
 
 __all__ = ["frozen_modes"]
 
 
+@one_blas_thread  # small matrices (numerics/blas.py); results independent of the thread count
 def frozen_modes(M: ArrayLike, K: ArrayLike, n: int | None = None) -> tuple[NDArray, NDArray]:
     """Lowest ``n`` modes of (K, M): ``omega2`` (rad^2/s^2) ascending, mass-normalised ``Phi``.
 
@@ -42,11 +43,6 @@ def frozen_modes(M: ArrayLike, K: ArrayLike, n: int | None = None) -> tuple[NDAr
     if not (np.all(np.isfinite(M)) and np.all(np.isfinite(K))):
         raise ComputationError("the frozen modes cannot be computed: M or K holds entries that are not finite "
                                "(an overflow of the numbers they are made of)")
-    with blas_threads(1):  # small matrices (numerics/blas.py); results independent of the thread count
-        return _modes(M, K, N, k)
-
-
-def _modes(M: NDArray, K: NDArray, N: int, k: int) -> tuple[NDArray, NDArray]:
     try:
         if M.ndim == 2:
             mu, V = scipy.linalg.eigh(M, K, subset_by_index=(N - k, N - 1))

@@ -38,7 +38,6 @@ condition is needed.
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -49,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ComputationError, InputError, checked
 from .modal_equations import Harmonic, ModalSystem, Parametric, _check_inputs
-from .blas import blas_threads
+from .blas import one_blas_thread
 from .newmark import NewtonConvergenceError, integrate
 from .schemes import GENERIC_SCHEME, Scheme
 from .systems import PeriodicStepData, SecondOrderSystem, System
@@ -418,21 +417,6 @@ class PeriodicOrbit:
         return self.spectral_radius < 1.0
 
 
-def _one_blas_thread(func: Callable[..., Any]) -> Callable[..., Any]:
-    """Run ``func`` with the BLAS thread pools limited to one thread (threadpoolctl).
-
-    Threaded BLAS rounds differently with the number of threads; with one thread the results
-    of shooting and continuation do not depend on ``OPENBLAS_NUM_THREADS`` or the core count
-    (and the small dense matrices of a period map are faster on one thread)."""
-
-    @functools.wraps(func)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        with blas_threads(1):
-            return func(*args, **kwargs)
-
-    return wrapper
-
-
 #: a period's evaluation for :func:`newton_periodic`: ``(x_T, W, g, a, r, data)``, the state after
 #: one period, the monodromy matrix (times the present basis; None when not asked), the residual
 #: ``g = x_T - x``, its absolute and relative size, and what the caller keeps of the period
@@ -587,7 +571,7 @@ def newton_periodic(evaluate: Callable[[Array, bool], Evaluation], x: ArrayLike,
 
 
 @checked
-@_one_blas_thread
+@one_blas_thread
 def shoot(period_map: PeriodMap, x0: ArrayLike, p: float | None = None, tol: float = 1e-10,
           max_iter: int = 30, scale: ArrayLike | None = None) -> PeriodicOrbit:
     r"""Newton's method on :math:`\mathbf P(\mathbf x; p) - \mathbf x = \mathbf 0`.
