@@ -128,6 +128,7 @@ L. Guillot, A. Lazarus, O. Thomas, C. Vergez, B. Cochelin, J. Comput. Phys. 416 
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -377,6 +378,13 @@ class _Residual:
             n, D = self.n, omega * self.D1
             self._lin = {omega: _right(self.Ch, D, n) + _right(self.Mh, D @ D, n)}
         return self._lin[omega]
+
+    def light(self) -> _Residual:
+        """This residual without its projected matrices (made again when needed): what a
+        solution keeps."""
+        out = copy.copy(self)
+        out._proj, out._lin = {}, {}
+        return out
 
     def linear(self, omega: float) -> Array:
         """The Jacobian of the linear terms at the frequency omega."""
@@ -647,6 +655,11 @@ class HarmonicBalanceSolution:
     load_path : list of int
         The points of the continuation in the load, for every H solved (0: Newton's method
         converged from its start).
+
+    The solution keeps its system's samples (to compute Hill's method and the error estimate
+    when asked), not the dense (2 H + 1) n square matrices of the balance: the Jacobian at the
+    solution is made again by :meth:`hill` (at H = 46 with 22 DOFs each such matrix is 33 MB,
+    and a sweep keeps a solution per speed).
     """
 
     coefficients: Array
@@ -658,9 +671,11 @@ class HarmonicBalanceSolution:
     accuracy: dict | None = None
     load_path: list = field(default_factory=list)
     _res: Any = field(default=None, repr=False)
-    _J: Any = field(default=None, repr=False)
-    _lu: Any = field(default=None, repr=False)
     _hill: dict = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        if self._res is not None:
+            self._res = self._res.light()
 
     @property
     def omega(self) -> float:
@@ -704,7 +719,9 @@ class HarmonicBalanceSolution:
         H = self.harmonics if harmonics is None else int(number("harmonics", harmonics, integer=True, low=1,
                                                               high=self.harmonics))
         if H not in self._hill:
-            self._hill[H] = _hill(self._res, self._J, self.omega, H)
+            res = self._res.light()  # its projections made here are dropped after
+            J = res.evaluate(self.x, self.omega)[1]
+            self._hill[H] = _hill(res, J, self.omega, H)
         return self._hill[H]
 
     @property
@@ -855,7 +872,7 @@ def harmonic_balance(
             H, res = min(max_harmonics, 2 * H), None
             continue
         sol = HarmonicBalanceSolution(x.reshape(2 * H + 1, n), H, N, float(system.period), r, it,
-                                      None, list(path), res, J, lu)
+                                      None, list(path), res)
         if tol is None:
             return sol
         est = _estimate(res, sol, measure, tol=tol)
@@ -997,7 +1014,6 @@ class HarmonicBalanceFamily:
         res = self._at(p)
         w = self._omega(p, res)
         x = np.asarray(x, float)
-        R, J, _, _ = res.evaluate(x, w)
-        lu = scipy.linalg.lu_factor(J, check_finite=False)
+        R = res.evaluate(x, w, jacobian=False)[0]
         return HarmonicBalanceSolution(x.reshape(2 * self.H + 1, res.n).copy(), self.H, self.N, 2 * np.pi / w,
-                                       float(np.linalg.norm(R)) / res.scale(x, w), 0, None, [], res, J, lu)
+                                       float(np.linalg.norm(R)) / res.scale(x, w), 0, None, [], res)
