@@ -143,3 +143,22 @@ def test_the_model_names_no_part_of_the_five_bar():
     # and the check sees a planted name, in code but not in a docstring or comment
     planted = '"""Doc of L2 and motor1."""\n# L3\nJ = params.motors["motor1"]\nlink = "L2"\n'
     assert _code_names(planted) == [(3, '"motor1"'), (4, '"L2"')]
+
+
+def test_every_source_file_compiles_without_a_warning():
+    """An escape like ``\\m`` of ``\\mathbf`` in a docstring that is not raw is a
+    DeprecationWarning today and a SyntaxWarning from Python 3.12 (an error in a later one);
+    the docstring shows the backslash only by luck.  Every source file (the package, the tests,
+    the book's extensions, the benchmarks) compiles with warnings as errors."""
+    import warnings
+    root = LIB.parent.parent
+    files = [p for d in (LIB, root / "tests", root / "book" / "_ext", root / "benchmarks") for p in sorted(d.rglob("*.py"))]
+    bad = []
+    for path in files:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            try:
+                compile(path.read_text(encoding="utf-8"), str(path), "exec", dont_inherit=True)
+            except (SyntaxError, DeprecationWarning, SyntaxWarning) as exc:
+                bad.append(f"{path.relative_to(root)}: {exc}")
+    assert not bad, "\n".join(bad)

@@ -165,7 +165,7 @@ class LinkageDynamics:
         return crank_laws(self.params, t)[0::3]
 
     def _step_data(self, t: NDArray, elements_per_link, motors, speed_free: Params) -> PeriodicStepData:
-        """M, C, K, F at the S step times, from the speed-independent cache when it serves.
+        r"""M, C, K, F at the S step times, from the speed-independent cache when it serves.
 
         At constant crank speed the step times k T / S meet the same crank angles at every
         speed, so M, K, the frozen modes and C do not depend on the speed, and F = -M u_r''
@@ -259,7 +259,7 @@ class LinkageDynamics:
         return tuple(out)
 
     def _sample(self, t: NDArray, params: Params | None = None, split: bool = False) -> tuple[NDArray, ...]:
-        """M, C, K, F at the times ``t`` of ``params`` (default this set-up's; the cache samples
+        r"""M, C, K, F at the times ``t`` of ``params`` (default this set-up's; the cache samples
         the speed-free set, whose matrices are the same and whose F scales with the speed).
         ``split=True`` gives (M, C, K, F, KY): K without the stiffness damping's term
         :math:`\beta\mathbf Y_b`, linear in the speed, and that term (None with modal damping)."""
