@@ -1,5 +1,6 @@
 """Tests of fivebar.analyses.sweep: steady-state amplitude against crank speed, serial and parallel."""
 
+import contextlib
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import numpy as np
@@ -114,3 +115,23 @@ def test_bad_sweep_input(params, kwargs):
     with pytest.raises((SweepError, fivebar.errors.InputError)) as info:
         speed_sweep(params, progress=False, **kwargs)
     assert isinstance(info.value, ValueError)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("pool", [False, True])
+def test_a_speed_whose_steady_state_fails_is_named_and_the_finished_ones_kept(params, pool):
+    """At 3600 r/min (motors off, S = 100) the nonlinear linkage has no periodic orbit that
+    shooting finds (past the divergence of the lowest mode, errata E28): the sweep ends with
+    the steady state's own error, its note naming the speed and what had finished, and the
+    finished speed (2000 r/min) is in the store, so the same call at it does not solve again."""
+    from fivebar.analyses.steady import SteadyStateError
+
+    clear_cache()
+    setup = fivebar.Setup(params, motors=False, steps_per_period=100)
+    with contextlib.ExitStack() as stack:
+        executor = stack.enter_context(ThreadPoolExecutor(1)) if pool else None
+        with pytest.raises(SteadyStateError) as info:
+            speed_sweep(setup, [2000.0, 3600.0], progress=False, executor=executor)
+    notes = " ".join(getattr(info.value, "__notes__", []))
+    assert "at 3600 r/min" in notes and "1 of 2 speeds had finished" in notes and "resumes" in notes
+    assert len(STORE.keys("sweep.point")) == 1

@@ -296,6 +296,15 @@ def speed_sweep(
         validity of each row (``valid`` False where the stress is above yield, the deflection
         past the small-deflection range or a link's compression above its Euler load; one :class:`fivebar.errors.ValidityWarning` then says
         how many rows).
+
+    Raises
+    ------
+    fivebar.errors.FivebarError
+        The error of the first speed whose steady state fails (a
+        :class:`fivebar.analyses.steady.SteadyStateError` past the divergence of the lowest
+        mode, say), with a note naming that speed and how many had finished; the speeds not
+        started are cancelled, and with ``cache`` the finished ones stay in the store, so the
+        same call, or one over fewer speeds, resumes from them.
     """
     try:
         x = np.atleast_1d(np.asarray(speeds_rpm, float))
@@ -332,7 +341,11 @@ def speed_sweep(
                 tqdm(total=len(todo), disable=not progress, desc="crank speeds", unit="speed") as bar:
             if executor is None:
                 for s in todo:
-                    row = sweep_point(base.replace(crank_speed_rpm=s), *point)
+                    try:
+                        row = sweep_point(base.replace(crank_speed_rpm=s), *point)
+                    except FivebarError as exc:
+                        _note_speed(exc, s, len(results), len(x), cache)
+                        raise
                     with signals.held():
                         keep(s, row)
                     bar.update()
@@ -340,7 +353,13 @@ def speed_sweep(
                 futures = {executor.submit(sweep_point, base.replace(crank_speed_rpm=s), *point): s for s in todo}
                 for fut in cf.as_completed(futures):
                     s = futures[fut]
-                    row = fut.result()
+                    try:
+                        row = fut.result()
+                    except FivebarError as exc:
+                        for other in futures:  # the speeds not started: the sweep ends here
+                            other.cancel()
+                        _note_speed(exc, s, len(results), len(x), cache)
+                        raise
                     with signals.held():
                         keep(s, row)
                     bar.update()
@@ -359,6 +378,14 @@ def speed_sweep(
     df = pd.DataFrame([results[s] for s in x.tolist()])
     _warn_invalid(df)
     return df
+
+
+def _note_speed(exc: FivebarError, speed: float, done: int, total: int, cache: bool) -> None:
+    """Add to ``exc``, the failure of one speed's steady state, a note naming the speed and what
+    had finished (its type and message unchanged: ``except SteadyStateError`` still catches
+    it; the note shows in the traceback)."""
+    exc.add_note(f"speed_sweep: at {speed:g} r/min; {done} of {total} speeds had finished"
+                 + (", kept in the library's store: the same call resumes from them" if cache else ""))
 
 
 def _warn_invalid(df: pd.DataFrame) -> None:
