@@ -1,0 +1,54 @@
+"""The benchmarks behind the Performance page run on the library as it is.
+
+``benchmarks/bench_story.py`` had stopped running without anyone noticing: from 2026-12-03
+``multibody_steady_state`` refused the ``tol = inf`` its Exudyn ladder passed, and a Params alone
+came to mean the nonlinear set-up, whose sweep over 100-3600 r/min fails past the divergence of
+the lowest mode (errata E28); the page went on showing the figures of an older library.  Here the
+sections the page reads run in their quick form, and their JSON holds what the page reads.  No
+time is asserted (the machine may be shared): only that each runs and answers the question.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+pytestmark = pytest.mark.slow
+
+
+def _run(*args: str) -> dict:
+    out = subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert out.returncode == 0, out.stderr[-4000:]
+    return json.loads(out.stdout)
+
+
+def test_the_exudyn_comparison_and_the_sweep_of_the_story_benchmark_run():
+    pytest.importorskip("exudyn")
+    ex = _run("benchmarks/bench_story.py", "--quick", "--only", "exudyn_ms")["exudyn_ms"]
+    for speed in ("300rpm", "600rpm"):
+        chosen = ex[speed]["exudyn_coarsest_within_1pct"]  # a setting within 1 % was found
+        assert chosen["error"] <= 0.01 and chosen["ms"] > 0
+        ours = ex[speed]["fivebar_tol_0.01"]
+        assert ours["error_vs_S3200"] <= 0.01 and ours["estimate"] <= 0.01
+        assert {"first", "new_speed"} <= set(ex[speed]["ratio_exudyn_over_fivebar"])
+    sweep = _run("benchmarks/bench_story.py", "--quick", "--only", "sweep_s")["sweep_s"]
+    assert sweep["rows"] == sweep["speeds"] == 40
+
+
+def test_the_first_call_benchmark_runs_and_its_phases_add_up():
+    pytest.importorskip("exudyn")
+    out = _run("benchmarks/bench_first_call.py", "--repeats", "1", "--peer-repeats", "1")
+    for speed in ("300rpm", "600rpm"):
+        e = out[speed]
+        phases = e["phases_ms"]
+        assert set(phases) == {"build", "start", "monodromy periods", "plain periods", "Newton step", "estimate",
+                               "other"}
+        # one run: the phases and the rest are that run's, so they add up to its time
+        assert sum(phases.values()) == pytest.approx(e["total_ms"], rel=1e-9)
+        assert e["calls"]["build"] >= 2 and e["calls"]["monodromy periods"] >= 1  # S/2 and S
+        assert e["budget_ms"] == pytest.approx(e["exudyn"]["ms"] / 3)
