@@ -29,6 +29,9 @@ Prints one JSON object (and writes it with ``--out``).  Sections (times in ms un
                   and the exponent b of time ~ n^b from the paper's mesh to (4,8,8,4).
   sweep_s         ``speed_sweep`` over N speeds (100-3600 r/min) on a 2-process pool (the linear
                   model, motors on, S = 800), wall time including the pool start.
+  sweep_default_s issue 33's sweep: the parameter file's set-up (motors on, nonlinear, S = 800)
+                  over N speeds from 10 to 600 r/min on a 2-process pool, wall and CPU seconds,
+                  and the rows against the S = 1600 answer at 10 of the speeds (4 with --quick).
   import_s        ``import fivebar`` in a fresh interpreter.
   load            ``os.getloadavg()`` at start and end (the machine is shared).
 
@@ -271,6 +274,34 @@ def sweep_cost(n):
     return {"speeds": n, "processes": 2, "seconds": time.perf_counter() - t, "rows": len(df)}
 
 
+def sweep_default_cost(n, checked):
+    """Issue 33's sweep: ``speed_sweep(Setup(params))`` (the parameter file's set-up: motors on,
+    nonlinear, S = 800) over ``n`` speeds from 10 to 600 r/min on a 2-process pool, wall and the
+    pool's CPU seconds, and its rows against the S = 1600 answer at ``checked`` of the speeds
+    (the largest relative difference of the L2 and L3 midpoint peak-to-peak values)."""
+    import numpy as np
+    from concurrent.futures import ProcessPoolExecutor
+    from fivebar import load_params, steady_state
+    from fivebar.analyses.sweep import speed_sweep
+
+    p = load_params()
+    speeds = np.linspace(10.0, 600.0, n)
+    c0 = os.times()
+    t = time.perf_counter()
+    with ProcessPoolExecutor(2) as ex:
+        df = speed_sweep(Setup(p), speeds, executor=ex, progress=False, cache=False)
+    wall = time.perf_counter() - t
+    c1 = os.times()
+    worst = 0.0
+    for i in np.linspace(0, n - 1, checked).round().astype(int):
+        ref = steady_state(Setup(p, crank_speed_rpm=float(speeds[i]), steps_per_period=1600))
+        for link in ("L2", "L3"):
+            worst = max(worst, abs(df[f"{link} p2p (mm)"].iloc[i] / ref.peak_to_peak_mm(link) - 1.0))
+    return {"speeds": n, "processes": 2, "seconds": wall, "rows": len(df),
+            "cpu_s": (c1.children_user + c1.children_system) - (c0.children_user + c0.children_system),
+            "S": int(Setup(p).steps_per_period), "checked": checked, "largest_difference_vs_S1600": worst}
+
+
 def import_time(repeats):
     code = "import time; t = time.perf_counter(); import fivebar; print(time.perf_counter() - t)"
     ts = [float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
@@ -313,7 +344,7 @@ def main():
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--out", default=None)
     ap.add_argument("--only", default=None, help="one section: step_us, steady_ms, radau_s, exudyn_ms, "
-                    "scaling_ms, sweep_s, import_s")
+                    "scaling_ms, sweep_s, sweep_default_s, import_s")
     args = ap.parse_args()
     from threadpoolctl import threadpool_limits
     import numpy
@@ -333,6 +364,8 @@ def main():
                 res[name] = fn()
     if args.only in (None, "sweep_s"):
         res["sweep_s"] = sweep_cost(40 if args.quick else 200)
+    if args.only in (None, "sweep_default_s"):
+        res["sweep_default_s"] = sweep_default_cost(40 if args.quick else 200, 4 if args.quick else 10)
     if args.only in (None, "import_s"):
         res["import_s"] = import_time(rep)
     res["load"] = {"start": load0, "end": os.getloadavg()}

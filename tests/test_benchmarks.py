@@ -38,6 +38,9 @@ def test_the_exudyn_comparison_and_the_sweep_of_the_story_benchmark_run():
         assert {"first", "new_speed"} <= set(ex[speed]["ratio_exudyn_over_fivebar"])
     sweep = _run("benchmarks/bench_story.py", "--quick", "--only", "sweep_s")["sweep_s"]
     assert sweep["rows"] == sweep["speeds"] == 40
+    default = _run("benchmarks/bench_story.py", "--quick", "--only", "sweep_default_s")["sweep_default_s"]
+    assert default["rows"] == default["speeds"] == 40 and default["cpu_s"] > 0
+    assert default["largest_difference_vs_S1600"] <= 0.01  # S = 800 within 1 % of S = 1600
 
 
 def test_the_first_call_benchmark_runs_and_its_phases_add_up():
