@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 # that nbval sees the same figure outputs as were stored (tests/conftest.py selects Agg).
 export PYDEVD_DISABLE_FILE_VALIDATION := 1
 
-.PHONY: venv test check test-unit test-notebooks test-notebooks-other book book-clean book-student book-student-html \
+.PHONY: venv test check test-unit test-notebooks test-notebooks-other book book-clean book-student book-student-html screenshots \
 	pdf pdf-if-tex pdfs-if-tex datasets execute clean rerun rerun-examples
 
 venv: $(STAMP)
@@ -94,6 +94,13 @@ book: venv
 	set -eo pipefail; \
 	$(BIN)/jupyter-book build . --builder html -W -n --keep-going 2>&1 | tee _build/book.log; \
 	touch _build/html/.fivebar-build-ok
+
+## make screenshots: every page of the table of contents at 1400 and 390 px wide as a reader sees
+## it, in _build/screenshots/ (JPEG, whole pages; the browser test of tests/test_browser.py with
+## FIVEBAR_SCREENSHOTS=1, its checks included).  `make test` runs the checks without them.
+screenshots: book
+	FIVEBAR_SCREENSHOTS=1 $(BIN)/python -m pytest -p no:cacheprovider tests/test_browser.py -q \
+	-k test_page_reads_as_a_book
 
 ## make book-student: the student edition (no exercise solutions, neither in the pages, nor in
 ## the notebooks they offer for download, nor in its PDF) in _build/student/html, with the

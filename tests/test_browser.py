@@ -16,9 +16,11 @@ Two groups of tests on ``_build/html``:
   horizontal scrolling of the page; no content clipped by ``overflow: hidden``), no visible
   ``assert`` in code cells, raster figures of at least 1.5x their displayed pixel width (or
   SVG), every mention of an erratum (``E26``) in the prose a link, and chapter titles
-  numbered.  A screenshot of every page at both sizes goes to ``_build/screenshots/`` (JPEG,
-  the whole page up to ``SHOT_MAX_HEIGHT``) and every violation, naming page, element and
-  measured value, to ``_build/screenshots/violations.json``.  Every page must pass.
+  numbered.  Every violation, naming page, element and measured value, goes to
+  ``_build/screenshots/violations.json``.  Every page must pass.  With ``FIVEBAR_SCREENSHOTS=1``
+  (``make screenshots``) a screenshot of every page at both sizes goes there too (JPEG, the
+  whole page up to ``SHOT_MAX_HEIGHT``): for looking at a page as a reader would; ``make
+  test`` leaves them out (they were a third of this file's time).
 
 Each page is opened once per window size, and that one load serves all its checks (the load
 checks above, the reader's checks, the screenshot); the pages outside the table of contents
@@ -327,6 +329,7 @@ _WAIT_FOR_PAGE = """async () => {
         await MathJax.startup.promise;
     }
     await Promise.all(Array.from(document.images, img => img.decode().catch(() => null)));
+    await document.fonts.ready;
 }"""
 
 _INSPECT_PAGE = """() => {
@@ -356,12 +359,14 @@ _INSPECT_PAGE = """() => {
 
 
 def _settle(page) -> dict:
-    """Wait until the page (after any redirect) has typeset its math and decoded its images."""
+    """Wait until the page (after any redirect) has typeset its math, decoded its images and
+    loaded its fonts.
+
+    The page is awaited for what it does, not for a quiet network: Playwright's "networkidle"
+    (no request for 500 ms), waited twice, cost about a second a page, a minute of the file."""
     for attempt in range(3):
         try:
-            page.wait_for_load_state("networkidle")
             page.evaluate(_WAIT_FOR_PAGE)
-            page.wait_for_load_state("networkidle")
             return page.evaluate(_INSPECT_PAGE)
         except Exception as exc:  # a redirect page navigates while we look at it
             if "context was destroyed" not in str(exc) or attempt == 2:
@@ -426,6 +431,9 @@ def _check_page(context, url: str, viewport: dict | None = None, *, fetch_downlo
 #: (the longest, chapter 13, is about 48 000 px at 390 px wide), the API reference (about
 #: 250 000 px) its first part only.
 SHOT_MAX_HEIGHT = 50_000
+#: Screenshots of every page only when asked (``make screenshots``): 70-80 s of the 3 minutes
+#: of this file on 2 cores (measured 2026-12-04), for pictures no test reads.
+SHOTS = os.environ.get("FIVEBAR_SCREENSHOTS", "").strip() not in ("", "0")
 
 
 def _screenshot(page, path: Path) -> None:
@@ -434,6 +442,50 @@ def _screenshot(page, path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     page.screenshot(path=str(path), full_page=True, type="jpeg", quality=80,
                     clip={"x": 0, "y": 0, "width": size[0], "height": min(size[1], SHOT_MAX_HEIGHT)})
+
+
+def test_the_page_checks_find_what_is_broken(book, browser, tmp_path):
+    """The load and reader checks, as ``test_page_reads_as_a_book`` runs them, find the faults
+    planted in a copy of a built chapter: an image that is not there, an equation TeX cannot
+    read, a JavaScript error, an assert shown in a code cell, an erratum mention that is not a
+    link, an element wider than the text column.  They are found while the page is loading and
+    typesetting (``_settle`` awaits MathJax, the images and the fonts, not a quiet network)."""
+    site = tmp_path / "site"
+    (site / "book").mkdir(parents=True)
+    for entry in book.iterdir():  # the build's assets, shared; the chapter's page copied
+        if entry.name != "book":
+            (site / entry.name).symlink_to(entry, target_is_directory=entry.is_dir())
+    page = (book / "book" / "03_assembly.html").read_text(encoding="utf-8")
+    planted = ('<section id="planted-faults"><p>Erratum E26 in plain text.</p>'
+               '<img src="not-there.png" alt="a figure that is not there">'
+               '<div class="math notranslate nohighlight">\\[\\frac{1}{x\\]</div>'
+               '<div class="cell docutils container"><div class="cell_input docutils container">'
+               '<div class="highlight"><pre>assert x == 1</pre></div></div></div>'
+               '<div style="width: 3000px; background: #eee">too wide</div>'
+               '<script>undefined_function_of_the_test();</script></section>')
+    marker = '<section id="'
+    assert marker in page, "03_assembly.html has no section"
+    page = page.replace(marker, planted + marker, 1)
+    (site / "book" / "03_assembly.html").write_text(page, encoding="utf-8")
+    handler = functools.partial(_Handler, directory=str(site))
+    httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=httpd.serve_forever, daemon=True).start()
+    try:
+        problems, _, found = _check_page(
+            browser, f"http://127.0.0.1:{httpd.server_address[1]}/book/03_assembly.html",
+            VIEWPORTS["1400"], fetch_downloads=False, reader={"desktop": True, "chapter": 3})
+    finally:
+        httpd.shutdown()
+        httpd.server_close()
+    text = "\n".join(problems)
+    assert "not-there.png" in text and "HTTP 404" in text, problems
+    assert "images that do not load" in text, problems
+    assert "undefined_function_of_the_test" in text, problems
+    assert "TeX errors" in text or "not typeset" in text, problems
+    checks = {v["check"] for v in found}
+    assert "visible assert" in checks, checks
+    assert "erratum mention not a link" in checks, checks
+    assert any("text column" in c or "1400 px" in c or "horizontally" in c for c in checks), checks
 
 
 def test_search_finds_a_word_of_the_chapters(book, server, browser):
@@ -633,7 +685,7 @@ def test_page_reads_as_a_book(book, server, browser, doc, size):
     problems, info, found = _check_page(
         browser, f"{server}/book/{doc}.html", VIEWPORTS[size], fetch_downloads=desktop,
         reader={"desktop": desktop, "chapter": chapter},
-        screenshot=SCREENSHOTS / f"{doc}-{size}.jpg")
+        screenshot=SCREENSHOTS / f"{doc}-{size}.jpg" if SHOTS else None)
     if desktop and chapter is not None:
         offered = info["source_downloads"]
         if not any(h.endswith(f"/_sources/book/{doc}.ipynb") for h in offered):
