@@ -26,10 +26,18 @@ Loaded by ``_config.yml`` (``sphinx.local_extensions``).  It does five things:
 5. **The linkage figure of the front page.**  ``{linkage-figure}`` draws Figure 1 with
    :func:`fivebar.book.plotting.draw_linkage` at build time and embeds it as inline SVG, so the
    picture can never drift from the model's geometry.
+
+6. **One unpickled tree per document for numbered references.**  Sphinx resolves every
+   ``{numref}`` by unpickling the whole document it points into (``StandardDomain.
+   _resolve_numref_xref`` calls ``env.get_doctree``, which keeps the pickled bytes, not the
+   tree: sphinx-doc/sphinx#12883); with 220 numbered references that was 19 s of a 65 s
+   build.  The tree is only read there (the target node's type and number), so during the
+   writing of one build each document is unpickled once for them (:func:`_numref_trees`).
 """
 
 from __future__ import annotations
 
+import functools
 import importlib
 import inspect
 import json
@@ -867,7 +875,53 @@ def register_citation_style() -> None:
     register_plugin("pybtex.style.formatting", CITATION_STYLE, FivebarStyle)
 
 
+# --------------------------------------------------------------------------------------------
+# 6. One unpickled tree per document for numbered references
+# --------------------------------------------------------------------------------------------
+
+#: The documents' trees as read by the numbered references of the build under way (read-only).
+_NUMREF_TREES: dict[str, nodes.document] = {}
+
+
+def _numref_trees(resolve):
+    """``StandardDomain._resolve_numref_xref`` with ``env.get_doctree`` answered from
+    ``_NUMREF_TREES``: the resolver only looks the target node up and reads its type and
+    number, so one tree per document serves every reference into it.  Any other caller of
+    ``get_doctree`` (which may change the tree it gets) still gets a fresh copy."""
+    if getattr(resolve, "_fivebar_numref_trees", False):
+        return resolve
+
+    @functools.wraps(resolve)
+    def wrapper(self, env, *args, **kwargs):
+        real = env.get_doctree
+
+        def get_doctree(docname: str) -> nodes.document:
+            if docname not in _NUMREF_TREES:
+                _NUMREF_TREES[docname] = real(docname)
+            return _NUMREF_TREES[docname]
+
+        env.get_doctree = get_doctree
+        try:
+            return resolve(self, env, *args, **kwargs)
+        finally:
+            del env.get_doctree  # the method of the class again
+
+    wrapper._fivebar_numref_trees = True
+    return wrapper
+
+
+def _forget_numref_trees(*_args) -> None:
+    """The trees are those of one build: dropped when its reading ends (a document read again
+    has a new tree) and when it finishes."""
+    _NUMREF_TREES.clear()
+
+
 def setup(app: Sphinx) -> dict[str, Any]:
+    from sphinx.domains.std import StandardDomain
+
+    StandardDomain._resolve_numref_xref = _numref_trees(StandardDomain._resolve_numref_xref)
+    app.connect("env-updated", _forget_numref_trees)
+    app.connect("build-finished", _forget_numref_trees)
     register_citation_style()
     app.setup_extension("sphinx.ext.autodoc")
     app.connect("config-inited", _config_inited, priority=900)
