@@ -14,13 +14,18 @@ export PYDEVD_DISABLE_FILE_VALIDATION := 1
 
 venv: $(STAMP)
 
-# --no-compile: pip does not byte-compile every installed module (most are never imported);
-# Python compiles a module on its first import.
+# The installed modules are byte-compiled once, on all cores (compileall -j 0 instead of pip's
+# one module after another): where PYTHONDONTWRITEBYTECODE is set (as on the book's machine)
+# Python never writes a .pyc itself, and every process compiled every module it imported from
+# source again: each notebook's kernel, pool worker and test subprocess.  Measured 2026-12-04:
+# numpy, pandas and matplotlib imported in 2.05 s before, 0.7 s after; a fresh process to its
+# first steady state 2.7 s -> 1.0 s; the compiling 22 s once (2 cores), 300 MB on disk.
 $(STAMP): requirements-lock.txt pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet --no-compile -r requirements-lock.txt
 	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
+	$(BIN)/python -m compileall -q -j 0 $(VENV)/lib lib >/dev/null
 	touch $(STAMP)
 
 ## make test: nbval (strict) over every notebook in book/ first (it re-executes every cell: the
