@@ -54,12 +54,16 @@ WORKER_THREADS ?= $(shell n=$$(nproc 2>/dev/null || echo 1); j=$(TEST_JOBS); [ "
 	t=$$(( n / j )); [ $$t -ge 1 ] && echo $$t || echo 1)
 THREADS := OPENBLAS_NUM_THREADS=$(WORKER_THREADS) OMP_NUM_THREADS=$(WORKER_THREADS) MKL_NUM_THREADS=$(WORKER_THREADS)
 BUILD_JOBS ?= 2
+## $(call timed,PART): a recipe line that says, when it ends, how long it took (make test's parts)
+timed = @s=$$(date +%s); trap 'echo "make test: $(1): $$(( $$(date +%s) - s )) s"' EXIT;
 test: venv
+	$(call timed,nbval with the data downloads beside it) \
 	$(MAKE) --no-print-directory -j$(BUILD_JOBS) test-notebooks datasets
-	$(MAKE) --no-print-directory test-notebooks-other
-	$(BIN)/python book/_ext/fivebar_build.py seed-cache
-	$(MAKE) --no-print-directory pdfs-if-tex
-	$(MAKE) --no-print-directory -j$(BUILD_JOBS) -Otarget book book-student-html
+	$(call timed,nbval in the second numerical environment) $(MAKE) --no-print-directory test-notebooks-other
+	$(call timed,execution cache seeded) $(BIN)/python book/_ext/fivebar_build.py seed-cache
+	$(call timed,the two PDFs) $(MAKE) --no-print-directory pdfs-if-tex
+	$(call timed,the two HTML editions) $(MAKE) --no-print-directory -j$(BUILD_JOBS) -Otarget book book-student-html
+	$(call timed,tests/) \
 	$(THREADS) $(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) --dist loadfile tests -q --durations=25
 
 ## make check: the fast unit tests (not marked slow; no notebooks, no book, no browser), for the
