@@ -674,6 +674,8 @@ def _describe(f: LinkagePeriodMap, p: float, st: SteadyState, periods: int,
 
 #: The methods of :func:`steady_state` and the other callers of the engine, by name
 #: (:data:`fivebar.analyses.orbits.ORBIT_METHODS`, the same registry).
+#:
+#: :meta hide-value:
 STEADY_METHODS = ORBIT_METHODS
 
 

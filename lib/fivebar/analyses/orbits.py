@@ -231,6 +231,8 @@ class OrbitMethod:
 
 #: The methods of the engine, by name.  ``steady_state``, ``follow``, ``brute_force_diagram`` and
 #: the explanations take theirs from here (:func:`orbit_method`).
+#:
+#: :meta hide-value:
 ORBIT_METHODS: dict[str, OrbitMethod] = {}
 
 
