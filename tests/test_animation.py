@@ -172,3 +172,46 @@ def test_the_mode_frames_pass_over_a_rotor_whirl_that_does_not_move_the_linkage(
     assert data.frequencies[0] == pytest.approx(np.sqrt(w2) / (2 * np.pi), rel=1e-8)
     assert fivebar.natural_frequencies(p, *(float(a[0]) for a in theta), n_modes=3)[2] < data.frequencies[0, 2]
     assert all(np.isfinite(v).all() for s in data.shapes_mm for v in s.values()) and np.isfinite(data.curve).all()
+
+
+def test_a_blitted_frame_is_the_figure_drawn_whole():
+    """``_render`` draws only the moving artists again for each frame; each frame must be what
+    drawing the whole figure in that state gives (the reference: the canvas drawn anew, the
+    artists not animated), every frame of one size."""
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from PIL import Image
+
+    angles = np.linspace(0.0, 2 * np.pi, 5, endpoint=False)
+    fig, ax = plt.subplots(figsize=(3.0, 2.4), layout="constrained")
+    try:
+        ax.set_xlim(-1.2, 1.2)
+        ax.set_ylim(-1.2, 1.2)
+        ax.grid(True)
+        line = ax.plot([], [], lw=2)[0]
+        dot = ax.plot([], [], "o")[0]
+        title = ax.set_title("")
+
+        def update(i):
+            line.set_data([0.0, np.cos(angles[i])], [0.0, np.sin(angles[i])])
+            dot.set_data([np.cos(angles[i])], [np.sin(angles[i])])
+            title.set_text(f"angle {np.degrees(angles[i]):.0f}°")
+
+        frames, w, h = animation._render(fig, update, len(angles), 60, [line, dot, title])
+        assert len(frames) == len(angles)
+        for i, png in enumerate(frames):
+            got = np.asarray(Image.open(io.BytesIO(png)).convert("RGBA"), dtype=float)
+            assert got.shape == (h, w, 4)
+            for artist in (line, dot, title):
+                artist.set_animated(False)
+            update(i)
+            fig.canvas.draw()
+            whole = np.asarray(fig.canvas.buffer_rgba(), dtype=float)
+            assert np.abs(got - whole).max() <= 2.0, f"frame {i} differs from the figure drawn whole"
+            assert np.abs(got - whole).mean() < 0.01
+    finally:
+        plt.close(fig)

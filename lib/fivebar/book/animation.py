@@ -297,18 +297,45 @@ if (!window.matchMedia("(prefers-reduced-motion: reduce)").matches) start(); els
 """
 
 
-def _render(fig, update, count: int, dpi: int) -> tuple[tuple[bytes, ...], int, int]:
-    out = []
-    update(0)
-    fig.canvas.draw()  # lay out once (constrained), then keep the positions: half the cost
+def _render(fig, update, count: int, dpi: int, moving: list) -> tuple[tuple[bytes, ...], int, int]:
+    """The ``count`` frames of ``fig`` as PNG bytes, ``update(i)`` setting frame ``i``.
+
+    Only the ``moving`` artists (those ``update`` changes) are drawn again for each frame, over
+    the rest drawn once (blitting: the axes, ticks, labels and legend are the same in every
+    frame); a frame is the figure's whole canvas, so every frame has the same size.  Drawing
+    every frame whole (``savefig``) took 77 ms a frame of the linkage's animation, this about a
+    tenth of it (2026-12-04)."""
+    from matplotlib.text import Text
+    from PIL import Image
+
+    fig.set_dpi(dpi)
+    engine = fig.get_layout_engine()
+    if engine is not None and hasattr(engine, "set"):
+        engine.set(w_pad=0.1, h_pad=0.1)  # a margin of 0.1 in, as savefig's tight box gave
+    texts = [a for a in moving if isinstance(a, Text)]
+
+    def characters(i: int) -> int:
+        update(i)
+        return sum(len(t.get_text()) for t in texts)
+
+    update(max(range(count), key=characters))  # laid out with the longest titles of the frames
+    fig.canvas.draw()  # lay out once (constrained), then keep the positions
     fig.set_layout_engine("none")
+    for artist in moving:
+        artist.set_animated(True)  # left out of the figure's own drawing
+    fig.canvas.draw()
+    background = fig.canvas.copy_from_bbox(fig.bbox)
+    w, h = fig.canvas.get_width_height()
+    out = []
     for i in range(count):
         update(i)
+        fig.canvas.restore_region(background)
+        for artist in moving:
+            fig.draw_artist(artist)
         buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
+        Image.frombuffer("RGBA", (w, h), fig.canvas.buffer_rgba(), "raw", "RGBA", 0, 1).save(buf, format="png")
         out.append(buf.getvalue())
-    w, h = fig.get_size_inches() * dpi
-    return tuple(out), int(round(w)), int(round(h))
+    return tuple(out), int(w), int(h)
 
 
 def _limits(ax, arrays, pad: float = 0.06) -> None:
@@ -358,7 +385,8 @@ def animate_linkage(steady: Response, scale: float | None = None, frames: int = 
             title.set_text(f"elastic deflection × {data.scale:g} (peak {1e3 * data.peak_mm:.0f} µm);  "
                            f"crank angle {data.crank_angle_deg[i]:.0f}°")
 
-        png, w, h = _render(fig, update, len(data.crank_angle_deg), dpi)
+        moving = [*ghosts.values(), *lines.values(), joints, title]
+        png, w, h = _render(fig, update, len(data.crank_angle_deg), dpi, moving)
     finally:
         plt.close(fig)
     return Animation(png, interval_ms, f"Linkage over one crank turn, elastic deflection x {data.scale:g}", w, h)
@@ -418,7 +446,8 @@ def animate_modes(params: Params, n_modes: int = 3, frames: int = 36, dpi: int =
             marker.set_xdata([data.crank_angle_deg[i]] * 2)
             dots.set_offsets(np.column_stack([np.full(n, data.crank_angle_deg[i]), data.frequencies[i]]))
 
-        png, w, h = _render(fig, update, len(data.crank_angle_deg), dpi)
+        moving = [a for title, ghosts, lines in arts for a in (*ghosts.values(), *lines.values(), title)]
+        png, w, h = _render(fig, update, len(data.crank_angle_deg), dpi, [*moving, sup, marker, dots])
     finally:
         plt.close(fig)
     return Animation(png, interval_ms, f"The {n} lowest modes along one crank turn", w, h)
