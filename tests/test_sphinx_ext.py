@@ -125,3 +125,28 @@ def test_the_lookup_is_undone_after_each_reference(tmp_path):
     assert "get_doctree" not in vars(env)
     ext._forget_numref_trees(None, None)
     assert wrapped(None, env, "a") is not first
+
+
+def test_the_errata_ids_are_read_once_and_again_when_a_data_file_changes(monkeypatch, tmp_path):
+    """The roles {erratum} and {assumption} check their id against the data files: read once
+    for all the mentions of a build, and again when a file changes (its time stamp).  On a copy
+    of the errata file (the package's own is not touched while other tests run)."""
+    import os
+    import shutil
+
+    import fivebar.book.reporting as reporting
+
+    path = tmp_path / "errata.toml"
+    shutil.copy(reporting.ERRATA_PATH, path)
+    monkeypatch.setattr(reporting, "ERRATA_PATH", path)
+    ext = _extension()
+    reads = []
+    real = reporting.errata_table
+    monkeypatch.setattr(reporting, "errata_table", lambda *a, **k: reads.append(1) or real(*a, **k))
+    errata, assumptions = ext._known_ids()
+    assert "E26" in errata and "crank_speed_rpm" in assumptions
+    ext._known_ids()
+    assert len(reads) == 1
+    st = path.stat()
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))
+    assert ext._known_ids() == (errata, assumptions) and len(reads) == 2
