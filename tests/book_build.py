@@ -31,3 +31,14 @@ def make(target: str, product: Path) -> None:
     if run.returncode != 0 or not product.is_file():
         tail = "\n".join((run.stdout + run.stderr).splitlines()[-40:])
         pytest.fail(f"`make {target}` failed (exit {run.returncode}):\n{tail}")
+
+
+def book_extension():
+    """The book's local Sphinx extension (book/_ext/fivebar_book.py), imported afresh: a module
+    of its own for each call, so that a test may change it."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("fivebar_book", ROOT / "book" / "_ext" / "fivebar_book.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

@@ -35,6 +35,7 @@ another Chromium binary.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import http.server
 import os
@@ -45,7 +46,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from book_build import make, unavailable
+from book_build import book_extension as _extension, make, unavailable
 from book_checks import built_page_problems
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -169,17 +170,6 @@ def test_mathjax_is_served_from_the_build(book):
             f"{page.relative_to(book)} does not load the local MathJax"
 
 
-def _extension():
-    """The book's local Sphinx extension, imported from book/_ext."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        "fivebar_book", ROOT / "book" / "_ext" / "fivebar_book.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_no_developer_output_on_the_built_pages(book):
     """The text of every built page (its article: what a reader sees, scripts and styles left out)
     shows no developer output (tests/book_checks.py: paths, reprs of display objects, warnings'
@@ -274,9 +264,10 @@ class _Handler(http.server.SimpleHTTPRequestHandler):
         pass
 
 
-@pytest.fixture(scope="module")
-def server(book) -> Iterator[str]:
-    handler = functools.partial(_Handler, directory=str(book))
+@contextlib.contextmanager
+def _serving(directory: Path) -> Iterator[str]:
+    """``directory`` served on a free local port (no caching) while the block runs; its URL."""
+    handler = functools.partial(_Handler, directory=str(directory))
     httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
     thread = threading.Thread(target=httpd.serve_forever, daemon=True)
     thread.start()
@@ -285,6 +276,12 @@ def server(book) -> Iterator[str]:
     finally:
         httpd.shutdown()
         httpd.server_close()
+
+
+@pytest.fixture(scope="module")
+def server(book) -> Iterator[str]:
+    with _serving(book) as url:
+        yield url
 
 
 @pytest.fixture(scope="module")
@@ -467,16 +464,9 @@ def test_the_page_checks_find_what_is_broken(book, browser, tmp_path):
     assert marker in page, "03_assembly.html has no section"
     page = page.replace(marker, planted + marker, 1)
     (site / "book" / "03_assembly.html").write_text(page, encoding="utf-8")
-    handler = functools.partial(_Handler, directory=str(site))
-    httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
-    threading.Thread(target=httpd.serve_forever, daemon=True).start()
-    try:
-        problems, _, found = _check_page(
-            browser, f"http://127.0.0.1:{httpd.server_address[1]}/book/03_assembly.html",
-            VIEWPORTS["1400"], fetch_downloads=False, reader={"desktop": True, "chapter": 3})
-    finally:
-        httpd.shutdown()
-        httpd.server_close()
+    with _serving(site) as url:
+        problems, _, found = _check_page(browser, f"{url}/book/03_assembly.html", VIEWPORTS["1400"],
+                                         fetch_downloads=False, reader={"desktop": True, "chapter": 3})
     text = "\n".join(problems)
     assert "not-there.png" in text and "HTTP 404" in text, problems
     assert "images that do not load" in text, problems

@@ -8,20 +8,11 @@ and the document pointed into is unpickled once for all the references instead o
 
 from __future__ import annotations
 
-import importlib.util
 import textwrap
 from pathlib import Path
 
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def _extension():
-    spec = importlib.util.spec_from_file_location("fivebar_book_numref", ROOT / "book" / "_ext" / "fivebar_book.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+from book_build import book_extension as _extension
 
 
 def _project(src: Path) -> None:
