@@ -258,20 +258,29 @@ def exudyn_cost(quick, repeats):
     return out
 
 
-def sweep_cost(n):
-    import numpy as np
+def _pooled_sweep(setup, speeds):
+    """``speed_sweep(setup, speeds)`` on a fresh 2-process pool, nothing cached: the rows, the
+    wall seconds (the pool's start included) and the pool's CPU seconds."""
     from concurrent.futures import ProcessPoolExecutor
-    from fivebar import load_params
     from fivebar.analyses.sweep import speed_sweep
 
-    p = load_params()
+    c0 = os.times()
     t = time.perf_counter()
     with ProcessPoolExecutor(2) as ex:
-        # the linear model, as documented: a Params alone now means Setup(params), nonlinear, whose
-        # shooting fails past the divergence of the lowest mode (errata E28) within 100-3600 r/min
-        df = speed_sweep(Setup(p, nonlinear=False), np.linspace(100, 3600, n), executor=ex, progress=False,
-                         cache=False)
-    return {"speeds": n, "processes": 2, "seconds": time.perf_counter() - t, "rows": len(df)}
+        df = speed_sweep(setup, speeds, executor=ex, progress=False, cache=False)
+    wall = time.perf_counter() - t
+    c1 = os.times()
+    return df, wall, (c1.children_user + c1.children_system) - (c0.children_user + c0.children_system)
+
+
+def sweep_cost(n):
+    import numpy as np
+    from fivebar import load_params
+
+    # the linear model, as documented: a Params alone now means Setup(params), nonlinear, whose
+    # shooting fails past the divergence of the lowest mode (errata E28) within 100-3600 r/min
+    df, wall, _ = _pooled_sweep(Setup(load_params(), nonlinear=False), np.linspace(100, 3600, n))
+    return {"speeds": n, "processes": 2, "seconds": wall, "rows": len(df)}
 
 
 def sweep_default_cost(n, checked):
@@ -280,25 +289,17 @@ def sweep_default_cost(n, checked):
     pool's CPU seconds, and its rows against the S = 1600 answer at ``checked`` of the speeds
     (the largest relative difference of the L2 and L3 midpoint peak-to-peak values)."""
     import numpy as np
-    from concurrent.futures import ProcessPoolExecutor
     from fivebar import load_params, steady_state
-    from fivebar.analyses.sweep import speed_sweep
 
     p = load_params()
     speeds = np.linspace(10.0, 600.0, n)
-    c0 = os.times()
-    t = time.perf_counter()
-    with ProcessPoolExecutor(2) as ex:
-        df = speed_sweep(Setup(p), speeds, executor=ex, progress=False, cache=False)
-    wall = time.perf_counter() - t
-    c1 = os.times()
+    df, wall, cpu = _pooled_sweep(Setup(p), speeds)
     worst = 0.0
     for i in np.linspace(0, n - 1, checked).round().astype(int):
         ref = steady_state(Setup(p, crank_speed_rpm=float(speeds[i]), steps_per_period=1600))
         for link in ("L2", "L3"):
             worst = max(worst, abs(df[f"{link} p2p (mm)"].iloc[i] / ref.peak_to_peak_mm(link) - 1.0))
-    return {"speeds": n, "processes": 2, "seconds": wall, "rows": len(df),
-            "cpu_s": (c1.children_user + c1.children_system) - (c0.children_user + c0.children_system),
+    return {"speeds": n, "processes": 2, "seconds": wall, "rows": len(df), "cpu_s": cpu,
             "S": int(Setup(p).steps_per_period), "checked": checked, "largest_difference_vs_S1600": worst}
 
 
