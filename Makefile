@@ -9,23 +9,25 @@ STAMP  := $(VENV)/.installed
 # that nbval sees the same figure outputs as were stored (tests/conftest.py selects Agg).
 export PYDEVD_DISABLE_FILE_VALIDATION := 1
 
-.PHONY: venv test check test-unit test-notebooks test-notebooks-other book book-clean book-student book-student-html screenshots \
+.PHONY: venv kernels kernels-native kernels-generic test check test-unit test-notebooks test-notebooks-other book book-clean book-student book-student-html screenshots \
 	pdf pdf-if-tex pdfs-if-tex datasets execute clean rerun rerun-examples
 
 venv: $(STAMP)
 
-# The installed modules are byte-compiled once, on all cores (compileall -j 0 instead of pip's
-# one module after another): where PYTHONDONTWRITEBYTECODE is set (as on the book's machine)
-# Python never writes a .pyc itself, and every process compiled every module it imported from
-# source again: each notebook's kernel, pool worker and test subprocess.  Measured 2026-12-04:
-# numpy, pandas and matplotlib imported in 2.05 s before, 0.7 s after; a fresh process to its
-# first steady state 2.7 s -> 1.0 s; the compiling 22 s once (2 cores), 300 MB on disk.
+# Python writes the byte code of each module it imports, once, where the next process finds it:
+# where PYTHONDONTWRITEBYTECODE is set (as on the book's machine) it never did, and every process
+# compiled every module it imported from source again: each notebook's kernel, pool worker and
+# test subprocess (measured 2026-12-04: numpy, pandas and matplotlib imported in 2.05 s instead
+# of 0.7 s; a fresh process to its first steady state 2.7 s instead of 1.0 s).  Written on first
+# import, the byte code covers only what the book uses: byte-compiling the whole environment at
+# install (compileall on both cores) took 19 s of a fresh `make test` (12 000 modules).
+unexport PYTHONDONTWRITEBYTECODE
+
 $(STAMP): requirements-lock.txt pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet --no-compile -r requirements-lock.txt
 	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
-	$(BIN)/python -m compileall -q -j 0 $(VENV)/lib lib >/dev/null
 	touch $(STAMP)
 
 ## make test: nbval (strict) over every notebook in book/ first (it re-executes every cell: the
@@ -57,6 +59,8 @@ BUILD_JOBS ?= 2
 ## $(call timed,PART): a recipe line that says, when it ends, how long it took (make test's parts)
 timed = @s=$$(date +%s); trap 'echo "make test: $(1): $$(( $$(date +%s) - s )) s"' EXIT;
 test: venv
+	$(call timed,the compiled kernels of both numerical environments) \
+	$(MAKE) --no-print-directory -j$(BUILD_JOBS) kernels
 	$(call timed,nbval with the data downloads beside it) \
 	$(MAKE) --no-print-directory -j$(BUILD_JOBS) test-notebooks datasets
 	$(call timed,nbval in the second numerical environment) $(MAKE) --no-print-directory test-notebooks-other
@@ -88,11 +92,26 @@ test-notebooks: venv
 ## _build/numba-generic) and one BLAS thread.  Every stored output must survive it: a number
 ## printed to a digit that round-off moves fails here (book/run.md, "Check the book on your
 ## machine").  OPENBLAS_CORETYPE is left as the machine sets it.
+GENERIC := NUMBA_CPU_NAME=generic NUMBA_CACHE_DIR=$(CURDIR)/_build/numba-generic
 test-notebooks-other: venv
 	@mkdir -p _build/numba-generic
-	NUMBA_CPU_NAME=generic NUMBA_CACHE_DIR=$(CURDIR)/_build/numba-generic OPENBLAS_NUM_THREADS=1 \
+	$(GENERIC) OPENBLAS_NUM_THREADS=1 \
 	$(BIN)/python -m pytest -p no:cacheprovider -n $(TEST_JOBS) $(NBVAL_DIST) book --nbval --nbval-current-env \
 	--nbval-sanitize-with tests/nbval_sanitize.cfg -q
+
+## make kernels: the compiled time loop (numba's disk cache) for both numerical environments, the
+## machine's and the generic one, compiled side by side before the notebooks run (make test)
+## by one nonlinear steady state each.  Left to the first use, every process that started before
+## the cache was written compiled the loop again, 12 s each: in a fresh clone the two nbval
+## workers and the data downloads of the first pass, and the two workers of the second.
+KERNELS_USE := import warnings, fivebar; warnings.simplefilter("ignore"); \
+	fivebar.steady_state(fivebar.Setup(fivebar.load_params(), steps_per_period=50))
+kernels: kernels-native kernels-generic
+kernels-native: venv
+	$(BIN)/python -c '$(KERNELS_USE)'
+kernels-generic: venv
+	@mkdir -p _build/numba-generic
+	$(GENERIC) $(BIN)/python -c '$(KERNELS_USE)'
 
 ## make book: the rendered HTML book in _build/html.  Sphinx warnings are errors (-W -n,
 ## --keep-going reports them all), a failing notebook cell fails the build, and notebook
