@@ -198,6 +198,10 @@ def test_a_healed_copy_in_a_directory_of_another_user_is_not_read(tmp_path, monk
 
 
 def test_with_nowhere_to_write_the_temporary_cache_is_removed_at_exit(tiny, tmp_path):
+    """Neither beside the source nor in the user's cache: the functions compile into a temporary
+    directory, with a warning naming NUMBA_CACHE_DIR, removed at exit.  (The kernels take the same
+    path through import_cached; compiling them there cost 15 s of make test, so the small module
+    stands for them.)"""
     env = _env(tmp_path)
     env["XDG_CACHE_HOME"] = "/dev/null/cannot-be-a-directory"
     prefix = _read_only_prefix(tiny)

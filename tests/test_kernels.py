@@ -204,29 +204,6 @@ def test_compiled_errors_name_the_step(dyn):
         integrate(System(Z, Z, Z), [1.0, 0.0], [0.0, 0.0], 0.0, 0.1, 3, a0=[0.0, 0.0])
 
 
-@pytest.mark.slow
-def test_kernels_load_without_a_writable_cache_location():
-    """With no cache locator available (simulated: only locators that decline), the kernels
-    still load, caching in a temporary directory, with a warning that says how to keep it."""
-    import subprocess
-    import sys
-
-    code = ("import warnings, fivebar.numerics.newmark as nm\n"
-            "with warnings.catch_warnings(record=True) as w:\n"
-            "    warnings.simplefilter('always')\n"
-            "    k = nm._kernels()\n"
-            "import fivebar.numerics._jitcache as jc\n"
-            "assert k is not None and k.march is not None\n"
-            "assert any('NUMBA_CACHE_DIR' in str(x.message) for x in w), [str(x.message) for x in w]\n"
-            "print(k.march.stats.cache_path)\n")
-    import os
-    env = dict(os.environ, NUMBA_CACHE_LOCATOR_CLASSES="IPythonCacheLocator,UserProvidedCacheLocator")
-    env.pop("NUMBA_CACHE_DIR", None)
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
-    assert r.returncode == 0, r.stderr
-    assert "fivebar-numba-" in r.stdout
-
-
 @pytest.mark.parametrize("scheme", [Newmark(), GeneralizedAlpha(0.8)], ids=["newmark", "galpha"])
 @pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
 def test_directions_give_the_monodromy_products(dyn, scheme, compiled, monkeypatch):
