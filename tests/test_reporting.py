@@ -216,3 +216,28 @@ def test_a_table_cell_that_rounds_to_zero_has_no_sign():
     assert rows == ["| 0 |", "| 0 |", "| 0 |", "| -1e-05 |"]
     text = table(pd.DataFrame({"d (-)": [-0.0004]}), digits={"d (-)": 2}, caption="c", name="tab-07-zero").data
     assert "| 0.00 |" in text
+
+
+@pytest.mark.parametrize("display", [False, True])
+@pytest.mark.parametrize("value", ["10.5", 3, 0.25, [1, 2]], ids=["text", "int", "float", "list"])
+def test_glue_displays_what_myst_nb_glue_displays(monkeypatch, value, display) -> None:
+    """The chapters' glue (fivebar.book.reporting.glue) against myst-nb's own, which the book's
+    ``{glue:text}`` roles read: the same display call, bundle, metadata and options."""
+    import IPython.display
+    import myst_nb.ext.glue as theirs
+
+    from fivebar.book.reporting import glue
+
+    calls = {}
+
+    def record(who):
+        return lambda *args, **kwargs: calls.setdefault(who, []).append((args, kwargs))
+
+    monkeypatch.setattr(theirs, "ipy_display", record("myst-nb"))
+    monkeypatch.setattr(IPython.display, "display", record("fivebar"))
+    theirs.glue("key", value, display=display)
+    glue("key", value, display=display)
+    assert calls["fivebar"] == calls["myst-nb"]
+    (bundle,), options = calls["fivebar"][0]
+    assert all(k.startswith("application/papermill.record/") != display for k in bundle), bundle
+    assert options["metadata"]["scrapbook"]["name"] == "key"

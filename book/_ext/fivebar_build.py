@@ -134,7 +134,8 @@ def strip_solutions(markdown: str) -> tuple[str, int]:
 
 
 #: The tag of a code cell that computes the numbers of the exercises' solutions (glued into
-#: them with myst-nb's ``glue``; README, "Exercises in a chapter"): part of the solutions.
+#: them with ``fivebar.book.reporting.glue``, in myst-nb's format; README, "Exercises in a
+#: chapter"): part of the solutions.
 SOLUTION_TAG = "solution"
 
 

@@ -42,6 +42,7 @@ __all__ = [
     "assumptions_table",
     "format_value",
     "data_files",
+    "glue",
     "table",
 ]
 
@@ -338,6 +339,33 @@ def how_many(ok: Any, noun: str = "angle") -> str:
     if not ok.any():
         return f"at no {noun}"
     return f"at {int(ok.sum())} of {ok.size} {noun}s"
+
+
+#: The MIME-type prefix of a glued value that is not displayed, under which myst-nb's
+#: ``{glue:text}`` roles find it in the stored outputs (its papermill-compatible format).
+GLUE_PREFIX = "application/papermill.record/"
+
+
+def glue(name: str, value: Any, display: bool = True) -> None:
+    """Store ``value``'s display in the cell's outputs under ``name``, for ``{glue:text}`name```
+    in the text (the solutions of the exercises paste their computed numbers so).
+
+    The output is myst-nb's: the formats IPython would display, with the metadata
+    ``{"scrapbook": {"name": name, "mime_prefix": ...}}``, each format under
+    :data:`GLUE_PREFIX` when ``display`` is False (stored, not shown).  Written here instead of
+    importing ``myst_nb.glue`` into every chapter's kernel: that imports nbformat, whose
+    jsonschema imports ``rfc3987_syntax``, which builds a grammar at import (python-jsonschema
+    issue #1428): 1.1 s of every run of a chapter, 2 x 16 runs in ``make test`` and 180 more in
+    CI's reruns.  tests/test_reporting.py checks the output against myst-nb's, message for
+    message.
+    """
+    from IPython.core.formatters import format_display_data
+    from IPython.display import display as show
+
+    formats, metadata = format_display_data(value)
+    prefix = "" if display else GLUE_PREFIX
+    metadata["scrapbook"] = {"name": name, "mime_prefix": prefix}
+    show({prefix + mime: data for mime, data in formats.items()}, raw=True, metadata=metadata)
 
 
 def table(df: pd.DataFrame, digits: int | dict[str, int] = 4, caption: str | None = None,
