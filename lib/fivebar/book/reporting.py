@@ -42,6 +42,7 @@ __all__ = [
     "assumptions_table",
     "format_value",
     "data_files",
+    "GLUE_PREFIX",
     "glue",
     "table",
 ]
