@@ -363,8 +363,8 @@ def test_slow_servo_rigid_stability_matches_the_lagrange_dynamics():
         e = np.array([x[0] - law[0], x[2] - law[3]])
         ed = np.array([x[1] - law[1], x[3] - law[4]])
         tau = feedforward(q, t) - kp * e - kd * ed
-        return [x[1], *forward_dynamics(q, x[0], x[2], x[1], x[3], tau[0], tau[1], inertia=J)[:1], x[3],
-                *forward_dynamics(q, x[0], x[2], x[1], x[3], tau[0], tau[1], inertia=J)[1:]]
+        acc = forward_dynamics(q, x[0], x[2], x[1], x[3], tau[0], tau[1], inertia=J)
+        return [x[1], acc[0], x[3], acc[1]]
 
     law0 = crank_laws(q, 0.0)
     sol = solve_ivp(rhs, (0, 6 * T), [law0[0] + 1e-5, law0[1], law0[3], law0[4]], rtol=1e-10, atol=1e-14,

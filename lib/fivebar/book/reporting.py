@@ -351,15 +351,14 @@ def glue(name: str, value: Any, display: bool = True) -> None:
     """Store ``value``'s display in the cell's outputs under ``name``, for ``{glue:text}`name```
     in the text (the solutions of the exercises paste their computed numbers so).
 
-    The output is myst-nb's: the formats IPython would display, with the metadata
+    The output is myst-nb's glue: the formats IPython would display, with the metadata
     ``{"scrapbook": {"name": name, "mime_prefix": ...}}``, each format under
-    :data:`GLUE_PREFIX` when ``display`` is False (stored, not shown).  Written here instead of
-    importing ``myst_nb.glue`` into every chapter's kernel: that imports nbformat, whose
-    jsonschema imports ``rfc3987_syntax``, which builds a grammar at import (python-jsonschema
-    issue #1428): 1.1 s of every run of a chapter, 2 x 16 runs in ``make test`` and 180 more in
-    CI's reruns.  tests/test_reporting.py checks the output against myst-nb's, message for
-    message.
+    :data:`GLUE_PREFIX` when ``display`` is False (stored, not shown).
     """
+    # Not myst_nb.glue itself: importing it into a chapter's kernel imports nbformat, whose
+    # jsonschema imports rfc3987_syntax, which builds a grammar at import (python-jsonschema
+    # issue #1428): 1.1 s of every run of a chapter, 2 x 16 runs in make test and about 180
+    # more in CI's reruns.  tests/test_reporting.py checks the messages against myst-nb's.
     from IPython.core.formatters import format_display_data
     from IPython.display import display as show
 
