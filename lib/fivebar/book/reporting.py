@@ -10,6 +10,10 @@ disagree with what the code uses:
   ``data/wang2011.toml``): every number the paper does not give, with its value, unit, the
   reason for it and the alternative the book shows beside it.
 
+Beside them, how every chapter shows its numbers: :func:`table` (a numbered table), the
+wording of a value (:func:`certain`, :func:`percent`, :func:`significant`, ...) and :func:`glue`
+(a computed number stored for the text of an exercise's solution).
+
 No equation of the paper is implemented here.
 """
 
