@@ -361,7 +361,7 @@ def glue(name: str, value: Any, display: bool = True) -> None:
     """
     # Not myst_nb.glue itself: importing it into a chapter's kernel imports nbformat, whose
     # jsonschema imports rfc3987_syntax, which builds a grammar at import (python-jsonschema
-    # issue #1428): 1.1 s of every run of a chapter, 2 x 16 runs in make test and about 180
+    # issue #1428): 1.1 s of every run of a chapter, 2 x 16 runs in make test and 133
     # more in CI's reruns.  tests/test_reporting.py checks the messages against myst-nb's.
     from IPython.core.formatters import format_display_data
     from IPython.display import display as show
