@@ -27,10 +27,10 @@ from scipy.optimize import brentq, root
 from fivebar.numerics.continuation import ContinuationError, continuation, settle, switch_period_doubling
 from fivebar.errors import FivebarError
 from fivebar.numerics.newmark import NewtonConvergenceError
-from fivebar.numerics.modal_equations import ModalSystem
+from fivebar.numerics.modal_equations import Harmonic, ModalSystem
 from fivebar.numerics.response_curves import backbone
 from fivebar.numerics.systems import System
-from fivebar.numerics.periodic import PeriodicProblem, iterate_map, newmark_map, shoot
+from fivebar.numerics.periodic import PeriodicProblem, iterate_map, modal_period_map, newmark_map, shoot
 
 
 def _duffing(zeta, alpha, F, S):
@@ -39,6 +39,15 @@ def _duffing(zeta, alpha, F, S):
                       nonlinear=lambda u: (alpha * u ** 3, np.array([[3 * alpha * u[0] ** 2]])))
         return PeriodicProblem(sysm, 2 * math.pi / w, S)
     return newmark_map(family)
+
+
+def _duffing_compiled(zeta, alpha, F, S):
+    """The map of :func:`_duffing` (the same equation, period, steps and scheme) as the modal
+    equations give it: one mode, w = 1, gamma = -alpha, its force compiled, so that the compiled
+    loop marches it (``_duffing``'s Python functions are marched by the Python loop); for the
+    tests that apply the map tens of thousands of times."""
+    duffing = ModalSystem(w=[1.0], zeta=[zeta], gamma=np.full((1, 1, 1, 1), -alpha))
+    return modal_period_map(duffing, [Harmonic(1.0, [F])], steps=S)
 
 
 def _duffing_fold_reference(zeta, alpha, F, guess):
@@ -522,7 +531,7 @@ def test_a_branch_with_sharp_folds_is_the_same_from_either_end_and_under_perturb
     with the unscaled first step jumped across the lower fold onto the resonant branch, turned
     back there and left the range through 3.26 (folds reported: 1.3293, 1.3293, 2.6563)."""
     zeta, alpha, F, S = 0.02, 1.0, 0.3, 100
-    f = _duffing(zeta, alpha, F, S)
+    f = _duffing_compiled(zeta, alpha, F, S)
     found = []
     for p0, p1 in ((0.8, 3.0), (2.0, 0.8), (3.0, 0.8)):
         for factor in ((0.75, 1.0, 1.25) if p0 == 2.0 else (1.0,)):
@@ -549,7 +558,7 @@ def test_a_corrector_that_cannot_converge_in_its_budget_is_recovered_by_newton()
     fresh Jacobian at each iterate, more iterations) makes the step, each recovered point says
     so, and the branch and its folds are those of an ordinary run.  Without the recovery the
     continuation stops at its first point."""
-    f = _duffing(0.05, 1.0, 0.1, 100)
+    f = _duffing_compiled(0.05, 1.0, 0.1, 100)
     ref = continuation(f, np.zeros(2), 0.8, 1.6, ds=0.05, ds_max=0.1)
     br = continuation(f, np.zeros(2), 0.8, 1.6, ds=0.05, ds_max=0.1, ds_min=0.02, max_newton=1)
     assert br.stop == "p_end = 1.6 reached" and ref.stop == br.stop
@@ -655,3 +664,14 @@ def test_every_change_of_stability_is_located_where_a_test_functions_location_fa
         assert b.kind == "fold" and b.distance() < 1e-6
         ref = _duffing_fold_reference(zeta, alpha, F, np.r_[b.x, b.p])
         assert abs(b.p * (1 + period_error) - ref[2]) < 2e-5
+
+
+def test_the_compiled_duffing_map_is_the_python_one():
+    """:func:`_duffing_compiled`, which the slow tests of this file use, is the map of
+    :func:`_duffing` (Python functions, the Python loop): the same state after a period and the
+    same monodromy matrix, to round-off, on and off resonance."""
+    f, g = _duffing_compiled(0.02, 1.0, 0.3, 100), _duffing(0.02, 1.0, 0.3, 100)
+    for x, p in ((np.array([0.4, -0.2]), 1.3), (np.array([1.5, 0.3]), 2.1)):
+        (xa, Pa), (xb, Pb) = f(x, p, True), g(x, p, True)
+        assert np.abs(xa - xb).max() < 1e-12 * np.abs(xb).max()
+        assert np.abs(Pa - Pb).max() < 1e-11 * np.abs(Pb).max()

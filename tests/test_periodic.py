@@ -129,3 +129,89 @@ def test_the_generic_modules_import_nothing_of_the_linkage():
             "print(bad); assert not bad, bad")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def _modal_and_explicit(S=120):
+    """A two-mode system of the modal equations with every kind of term (linear coupling,
+    quadratic and cubic terms, a parametric and two harmonic excitations), as
+    ``modal_period_map`` builds it and as a :class:`System` of Python functions written out
+    here from (3.4): the second is marched by the Python loop, calling them at every step."""
+    from fivebar.numerics.modal_equations import Harmonic, ModalSystem, Parametric
+    from fivebar.numerics.periodic import modal_period_map
+
+    rng = np.random.default_rng(7)
+    n = 2
+    sysm = ModalSystem(w=[1.0, 2.3], zeta=[0.02, 0.03], alpha=0.05 * rng.standard_normal((n, n)),
+                       delta=0.3 * rng.standard_normal((n, n, n)), gamma=-0.5 * np.abs(rng.standard_normal((n,) * 4)))
+    harm = [Harmonic(1.0, [0.1, 0.05]), Harmonic(2.0, [0.02, -0.04], phase=0.3)]
+    par = [Parametric(2.0, 0.1 * rng.standard_normal((n, n)), phase=0.5)]
+    f = modal_period_map(sysm, harm, par, period=2 * math.pi, steps=S)
+
+    def family(p):
+        K = lambda t: (np.diag(sysm.w ** 2) + sysm.alpha  # noqa: E731
+                       + math.cos(p * par[0].frequency * t + par[0].phase) * par[0].stiffness)
+        F = lambda t: sum(h.amplitude * np.cos(p * h.frequency * t + h.phase) for h in harm)  # noqa: E731
+
+        def nonlinear(u):
+            f_ = -(np.einsum("rst,s,t->r", sysm.delta, u, u) + np.einsum("rstu,s,t,u->r", sysm.gamma, u, u, u))
+            Kt = np.empty((n, n))
+            for s in range(n):  # d f / d u_s term by term, with no symmetrised tensor
+                e = np.eye(n)[s]
+                Kt[:, s] = -(np.einsum("rst,s,t->r", sysm.delta, e, u) + np.einsum("rst,s,t->r", sysm.delta, u, e)
+                             + np.einsum("rstu,s,t,u->r", sysm.gamma, e, u, u)
+                             + np.einsum("rstu,s,t,u->r", sysm.gamma, u, e, u)
+                             + np.einsum("rstu,s,t,u->r", sysm.gamma, u, u, e))
+            return f_, Kt
+        return PeriodicProblem(System(np.eye(n), np.diag(2 * sysm.zeta * sysm.w), K, force=F, nonlinear=nonlinear),
+                               2 * math.pi / p, S, step_data=None)
+    return sysm, f, newmark_map(family)
+
+
+def test_the_modal_map_marches_in_the_compiled_loop_and_is_the_map_of_the_equations_written_out():
+    """The period map of the modal equations runs in the compiled loop, its polynomial force
+    compiled (``fivebar.numerics._polynomial_kernel``): its state after a period and its
+    monodromy matrix equal, to round-off, those of the same equations written out as a
+    System of Python functions and marched by the Python loop (the path the map took before,
+    with a tangent written term by term here); and the compiled force is called instead of
+    the numpy one (once per period at most: the initial acceleration)."""
+    from fivebar.numerics import periodic
+
+    _, f, g = _modal_and_explicit()
+    x = np.array([0.3, -0.1, 0.05, 0.2])
+    calls = []
+    original = periodic._PolynomialForce.__call__
+    periodic._PolynomialForce.__call__ = lambda self, u: calls.append(1) or original(self, u)
+    try:
+        xa, Pa = f(x, 1.1, True)
+    finally:
+        periodic._PolynomialForce.__call__ = original
+    xb, Pb = g(x, 1.1, True)
+    assert len(calls) <= 1
+    assert np.abs(xa - xb).max() < 1e-12 * np.abs(xb).max()
+    assert np.abs(Pa - Pb).max() < 1e-11 * np.abs(Pb).max()
+
+
+def test_the_compiled_polynomial_force_and_its_tangent():
+    """``_polynomial_kernel.polynomial_force`` against the numpy form (to round-off) and its tangent against
+    central differences of the force, for three modes with every coefficient non-zero."""
+    from fivebar.numerics._jitcache import import_cached
+    from fivebar.numerics.periodic import _PolynomialForce
+
+    rng = np.random.default_rng(3)
+    n = 3
+    delta, gamma = rng.standard_normal((n, n, n)), rng.standard_normal((n,) * 4)
+    kern = import_cached("fivebar.numerics._polynomial_kernel")
+    rdata, idata = kern.pack_polynomial(delta, gamma)
+    u = rng.standard_normal(n)
+    fc, Kc = np.empty(n), np.empty((n, n))
+    kern.polynomial_force(u, 0, rdata, idata, fc, Kc, True)
+    fp, Kp = _PolynomialForce(delta, gamma)(u)
+    assert np.abs(fc - fp).max() < 1e-13 * np.abs(fp).max()
+    assert np.abs(Kc - Kp).max() < 1e-13 * np.abs(Kp).max()
+    h = 1e-6
+    fd = np.column_stack([(_PolynomialForce(delta, gamma)(u + h * e)[0] - _PolynomialForce(delta, gamma)(u - h * e)[0]) / (2 * h)
+                          for e in np.eye(n)])
+    assert np.abs(Kc - fd).max() < 1e-8 * np.abs(Kc).max()
+    f0 = np.full(n, np.nan)
+    kern.polynomial_force(u, 5, rdata, idata, f0, Kc, False)  # the step point is not used
+    assert np.array_equal(f0, fc)

@@ -13,12 +13,14 @@ compiled function), and the Python loop of :func:`fivebar.numerics.newmark.integ
 system whose matrices or nonlinear force are Python callbacks.  Neither loop holds a formula of
 the step of its own.
 
-The nonlinear force of the compiled loop is the model's: a compiled function of the signature
+The nonlinear force of the compiled loop is the model's (the linkage's strain force,
+``fivebar.model._nonlinear_kernel``, or the modal equations' polynomial force,
+``fivebar.numerics._polynomial_kernel``): a compiled function of the signature
 :data:`FORCE_SIG`, ``force(u, k, rdata, idata, f, Kt, tangent)``, passed to :func:`march` as a
 first-class function with the model's data in two flat arrays (``rdata`` floats, ``idata``
 integers: the function unpacks them), which fills ``f`` (n,) with the force at the state
 ``u`` and step point ``k`` and, if ``tangent``, ``Kt`` (n, n) with its Jacobian.  This module
-knows nothing of the model (the linkage's strain force is ``fivebar.model._nonlinear_kernel``).
+knows nothing of the model.
 
 The state is one array ``x`` (4, n): displacement, velocity, acceleration and the alpha
 schemes' force history :math:`\mathbf g_n = \mathbf C\dot{\mathbf u} + \mathbf K\mathbf u

@@ -92,7 +92,8 @@ LU, the alpha history, the sensitivity step) is a set of small compiled function
 loop, whenever the data allow it (per-step matrices from a :class:`~fivebar.numerics.systems.PeriodicStepData`, or a
 time-invariant system, with no nonlinear force or one the system supplies compiled,
 ``system.compiled_nonlinear(step_data)``, as :class:`fivebar.model.dynamics.LinkageDynamics` does with
-the beam's strain force), and a Python loop for a generic system with Python callbacks (a
+the beam's strain force and :func:`fivebar.numerics.periodic.modal_period_map` with the modal
+equations' quadratic and cubic force), and a Python loop for a generic system with Python callbacks (a
 nonlinear force given as a function, time-varying matrices without step data).  The loops
 differ only in where the matrices and the nonlinear force come from; the tests hold them equal
 to round-off.  Newton's iteration of a nonlinear step starts from the acceleration
@@ -456,7 +457,7 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
     tol = np.array([rtol, xtol, atol])
 
     compiled_nl = None
-    if not linear and sd is not None:
+    if not linear and (sd is not None or time_invariant):
         get = getattr(system, "compiled_nonlinear", None)
         compiled_nl = get(sd) if callable(get) else None
     if _USE_KERNELS and (sd is not None or time_invariant) and (linear or compiled_nl is not None):

@@ -111,8 +111,9 @@ class PeriodicProblem:
         Time at the start of the period (s).
     step_data : PeriodicStepData, optional
         Precomputed per-step matrices (the compiled loop serves them); default: sampled from
-        the system when the system is linear or time-varying, so that the compiled loop
-        serves; ``None`` keeps the system's callbacks.
+        the system when the system is linear and time-varying, or its nonlinear force is
+        compiled (:meth:`~fivebar.numerics.systems.System.compiled_nonlinear`), so that the
+        compiled loop serves; else the Python loop calls the system's functions.
     scheme : Scheme, optional
         Time integrator (default :class:`~fivebar.numerics.schemes.Newmark`, average acceleration).
     options : dict
@@ -284,12 +285,7 @@ def modal_period_map(system: ModalSystem, harmonics: "list[Harmonic] | tuple" = 
     K0 = np.diag(w**2) + system.alpha
     delta, gamma = system.delta, system.gamma
     has_nl = bool(np.any(delta) or np.any(gamma))
-
-    def nonlinear(u):
-        f = -(np.einsum("rst,s,t->r", delta, u, u) + np.einsum("rstu,s,t,u->r", gamma, u, u, u))
-        Kt = -(np.einsum("rst,t->rs", delta + delta.transpose(0, 2, 1), u)
-               + np.einsum("rstu,t,u->rs", gamma + gamma.transpose(0, 2, 1, 3) + gamma.transpose(0, 3, 2, 1), u, u))
-        return f, Kt
+    nonlinear = _PolynomialForce(delta, gamma)
 
     def family(p):
         p = float(p if p is not None else 1.0)
@@ -311,16 +307,60 @@ def modal_period_map(system: ModalSystem, harmonics: "list[Harmonic] | tuple" = 
                     out = out + h.amplitude * np.cos(p * h.frequency * t + h.phase)
                 return out
         sysm = System(np.eye(n), C, K, force=force, nonlinear=nonlinear if has_nl else None)
-        return PeriodicProblem(sysm, period / p, int(steps), scheme=scheme)
+        # the same K(t) and F(t) at the S step times at once (the times as
+        # PeriodicStepData.from_system takes them), for the compiled loop
+        T, S = period / p, int(steps)
+        ts = T * np.arange(S) / S
+        Ks = K0 + sum(np.cos(p * q.frequency * ts + q.phase)[:, None, None] * q.stiffness for q in parametric) \
+            if parametric else K0
+        Fs = sum(h.amplitude * np.cos(p * h.frequency * ts[:, None] + h.phase) for h in harmonics) \
+            if harmonics else np.zeros((S, n))
+        return PeriodicProblem(sysm, T, S, step_data=PeriodicStepData(np.eye(n), C, Ks, Fs, 0.0, T), scheme=scheme)
 
     return newmark_map(family)
 
 
+class _PolynomialForce:
+    r"""The restoring force of the modal equations' quadratic and cubic terms,
+    :math:`f_r = -\sum\delta_{rst}\eta_s\eta_t - \sum\gamma_{rstu}\eta_s\eta_t\eta_u` (on the
+    left of :math:`\ddot{\boldsymbol\eta} + \dots + \mathbf f = \mathbf F`), and its tangent:
+    ``u -> (f, K_t)`` in numpy, and the same compiled (:meth:`compiled`, the compiled loop's
+    form, ``fivebar.numerics._polynomial_kernel``), so that the period map runs in the compiled
+    loop rather than in the Python loop with this callback at every Newton iteration."""
+
+    def __init__(self, delta: Array, gamma: Array) -> None:
+        self.delta, self.gamma = delta, gamma
+        self.dsym = delta + delta.transpose(0, 2, 1)
+        self.gsym = gamma + gamma.transpose(0, 2, 1, 3) + gamma.transpose(0, 3, 2, 1)
+        self._compiled: tuple | None = None
+
+    def __call__(self, u: Array) -> tuple[Array, Array]:
+        f = -(np.einsum("rst,s,t->r", self.delta, u, u) + np.einsum("rstu,s,t,u->r", self.gamma, u, u, u))
+        Kt = -(np.einsum("rst,t->rs", self.dsym, u) + np.einsum("rstu,t,u->rs", self.gsym, u, u))
+        return f, Kt
+
+    def compiled(self) -> tuple:
+        """``(force, rdata, idata)`` for the compiled loop (compiled once, then cached on disk)."""
+        if self._compiled is None:
+            from ._jitcache import import_cached  # here: numba is heavy
+
+            kern = import_cached(f"{__package__}._polynomial_kernel")
+            self._compiled = (kern.polynomial_force,) + kern.pack_polynomial(self.delta, self.gamma)
+        return self._compiled
+
+
 def _with_step_data(prob: PeriodicProblem) -> PeriodicProblem:
-    """Sample the per-step matrices of a linear time-varying system (the compiled loop serves it)."""
-    if prob.step_data is not None or getattr(prob.system, "nonlinear", None) is not None:
+    """Sample the per-step matrices and forces where the compiled loop then serves the system: a
+    linear time-varying one, or a nonlinear one whose force is compiled
+    (:meth:`~fivebar.numerics.systems.System.compiled_nonlinear`; sampled also when time-invariant,
+    so that each period reads its forces instead of calling ``force(t)`` at every step)."""
+    if prob.step_data is not None:
         return prob
-    if getattr(prob.system, "time_invariant", False):
+    if getattr(prob.system, "nonlinear", None) is not None:
+        get = getattr(prob.system, "compiled_nonlinear", None)
+        if not callable(get) or get(None) is None:
+            return prob  # a Python force: the Python loop calls the system's functions
+    elif getattr(prob.system, "time_invariant", False):
         return prob
     sd = PeriodicStepData.from_system(prob.system, prob.t0, prob.period, prob.steps)
     return PeriodicProblem(prob.system, prob.period, prob.steps, prob.t0, sd, prob.scheme, prob.options)

@@ -81,6 +81,10 @@ class System:
         External force ``F(t)``; None is zero.
     nonlinear : None or callable ``(u, t) -> (f_nl, K_t)`` or ``u -> (f_nl, K_t)``
         Internal nonlinear force and its tangent ``d f_nl / d u``; None for a linear system.
+        A callable that also has a method ``compiled() -> (force, rdata, idata)``, the same
+        force (independent of t) as the compiled loop takes it, is marched there
+        (:meth:`compiled_nonlinear`): the modal equations' polynomial force of
+        :func:`fivebar.numerics.periodic.modal_period_map` is one.
     """
 
     def __init__(
@@ -121,6 +125,14 @@ class System:
             self.nonlinear = lambda u, t: nonlinear(u)  # time-independent f_nl(u)
         else:
             self.nonlinear = nonlinear
+        self._nonlinear_given = nonlinear
+
+    def compiled_nonlinear(self, step_data: PeriodicStepData | None = None) -> tuple | None:
+        """The nonlinear force as the compiled loop takes it (``(force, rdata, idata)``, the
+        optional member of :class:`SecondOrderSystem`) where the ``nonlinear`` callable given
+        provides it (a method ``compiled()``), else None: the Python loop calls ``nonlinear``."""
+        get = getattr(self._nonlinear_given, "compiled", None)
+        return get() if callable(get) else None
 
     def matrices(self, t: float) -> tuple[Array, Array, Array]:
         """``(M, C, K)`` at time ``t`` (s)."""
