@@ -55,3 +55,11 @@ def test_the_first_call_benchmark_runs_and_its_phases_add_up():
         assert sum(phases.values()) == pytest.approx(e["total_ms"], rel=1e-9)
         assert e["calls"]["build"] >= 2 and e["calls"]["monodromy periods"] >= 1  # S/2 and S
         assert e["budget_ms"] == pytest.approx(e["exudyn"]["ms"] / 3)
+
+
+def test_the_modal_map_benchmark_runs_both_loops_on_one_problem():
+    out = _run("benchmarks/bench_modal_map.py", "--repeats", "1")
+    c, py = out["cases"]["compiled"], out["cases"]["python"]
+    assert c["continuation_points"] == py["continuation_points"] and len(c["folds"]) == 2
+    assert out["fold_difference"] < 1e-9 and out["state_difference_relative"] < 1e-12
+    assert set(out["speed_up"]) == {"period_ms", "period_with_monodromy_ms", "continuation_s"}
