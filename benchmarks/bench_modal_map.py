@@ -56,14 +56,17 @@ def maps():
     return {"compiled": compiled, "python": newmark_map(family)}
 
 
-def median_ms(fn, repeats):
-    fn()  # compiled code loaded, the problem at this p built
+def median_ms(fn, repeats, warm=True):
+    """Median wall time (ms) of ``repeats`` calls of ``fn`` (after one untimed call if ``warm``),
+    and the last call's result."""
+    if warm:
+        fn()  # compiled code loaded, the problem at this p built
     ts = []
     for _ in range(repeats):
         t = time.perf_counter()
-        fn()
+        out = fn()
         ts.append(time.perf_counter() - t)
-    return 1e3 * statistics.median(ts)
+    return 1e3 * statistics.median(ts), out
 
 
 def main() -> None:
@@ -77,15 +80,16 @@ def main() -> None:
            "cases": {}}
     states, folds = {}, {}
     for name, f in maps().items():
-        states[name] = f(x, p, False)[0]
-        branch = continuation(f, np.zeros(2), 1.0, 1.4, ds=0.05, ds_max=0.3)
+        period, (xT, _) = median_ms(lambda: f(x, p, False), args.repeats)
+        states[name] = xT
+        with_monodromy, _ = median_ms(lambda: f(x, p, True), args.repeats)
+        # (the periods above loaded the compiled code: the continuation is timed from its first run)
+        branch_ms, branch = median_ms(lambda: continuation(f, np.zeros(2), 1.0, 1.4, ds=0.05, ds_max=0.3),
+                                      args.repeats, warm=False)
         folds[name] = sorted(b.p for b in branch.bifurcations if b.kind == "fold")
-        out["cases"][name] = {
-            "period_ms": median_ms(lambda: f(x, p, False), args.repeats),
-            "period_with_monodromy_ms": median_ms(lambda: f(x, p, True), args.repeats),
-            "continuation_s": median_ms(lambda: continuation(f, np.zeros(2), 1.0, 1.4, ds=0.05, ds_max=0.3),
-                                        args.repeats) / 1e3,
-            "continuation_points": len(branch.points), "folds": folds[name]}
+        out["cases"][name] = {"period_ms": period, "period_with_monodromy_ms": with_monodromy,
+                              "continuation_s": branch_ms / 1e3, "continuation_points": len(branch.points),
+                              "folds": folds[name]}
     c, py = out["cases"]["compiled"], out["cases"]["python"]
     out["speed_up"] = {k: py[k] / c[k] for k in ("period_ms", "period_with_monodromy_ms", "continuation_s")}
     out["state_difference_relative"] = float(np.abs(states["compiled"] - states["python"]).max()
