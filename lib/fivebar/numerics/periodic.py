@@ -291,31 +291,24 @@ def modal_period_map(system: ModalSystem, harmonics: "list[Harmonic] | tuple" = 
         p = float(p if p is not None else 1.0)
         if not (math.isfinite(p) and p > 0):
             raise InputError(f"p = {p!r} is not allowed: the frequency factor must be positive")
-        if parametric:
-            def K(t):
-                out = K0.copy()
-                for q in parametric:
-                    out = out + math.cos(p * q.frequency * t + q.phase) * q.stiffness
-                return out
-        else:
-            K = K0
-        force = None
-        if harmonics:
-            def force(t):
-                out = np.zeros(n)
-                for h in harmonics:
-                    out = out + h.amplitude * np.cos(p * h.frequency * t + h.phase)
-                return out
-        sysm = System(np.eye(n), C, K, force=force, nonlinear=nonlinear if has_nl else None)
-        # the same K(t) and F(t) at the S step times at once (the times as
-        # PeriodicStepData.from_system takes them), for the compiled loop
+
+        def K(t):  # K(t), at a time or at an array of times (..., n, n)
+            t = np.asarray(t, float)
+            return K0 + sum(np.cos(p * q.frequency * t + q.phase)[..., None, None] * q.stiffness for q in parametric)
+
+        def force(t):  # F(t), at a time or at an array of times (..., n)
+            t = np.asarray(t, float)
+            return sum((h.amplitude * np.cos(p * h.frequency * t[..., None] + h.phase) for h in harmonics),
+                       np.zeros(t.shape + (n,)))
+
+        sysm = System(np.eye(n), C, K if parametric else K0, force=force if harmonics else None,
+                      nonlinear=nonlinear if has_nl else None)
+        # K and F at the S step times at once (the times as PeriodicStepData.from_system takes
+        # them): the compiled loop reads them there
         T, S = period / p, int(steps)
         ts = T * np.arange(S) / S
-        Ks = K0 + sum(np.cos(p * q.frequency * ts + q.phase)[:, None, None] * q.stiffness for q in parametric) \
-            if parametric else K0
-        Fs = sum(h.amplitude * np.cos(p * h.frequency * ts[:, None] + h.phase) for h in harmonics) \
-            if harmonics else np.zeros((S, n))
-        return PeriodicProblem(sysm, T, S, step_data=PeriodicStepData(np.eye(n), C, Ks, Fs, 0.0, T), scheme=scheme)
+        sd = PeriodicStepData(np.eye(n), C, K(ts) if parametric else K0, force(ts), 0.0, T)
+        return PeriodicProblem(sysm, T, S, step_data=sd, scheme=scheme)
 
     return newmark_map(family)
 
