@@ -163,7 +163,7 @@ def _modal_and_explicit(S=120):
                              + np.einsum("rstu,s,t,u->r", sysm.gamma, u, u, e))
             return f_, Kt
         return PeriodicProblem(System(np.eye(n), np.diag(2 * sysm.zeta * sysm.w), K, force=F, nonlinear=nonlinear),
-                               2 * math.pi / p, S, step_data=None)
+                               2 * math.pi / p, S)
     return sysm, f, newmark_map(family)
 
 
@@ -201,7 +201,7 @@ def test_the_compiled_polynomial_force_and_its_tangent():
     n = 3
     delta, gamma = rng.standard_normal((n, n, n)), rng.standard_normal((n,) * 4)
     kern = import_cached("fivebar.numerics._polynomial_kernel")
-    rdata, idata = kern.pack_polynomial(delta, gamma)
+    _, rdata, idata = _PolynomialForce(delta, gamma).compiled()
     u = rng.standard_normal(n)
     fc, Kc = np.empty(n), np.empty((n, n))
     kern.polynomial_force(u, 0, rdata, idata, fc, Kc, True)

@@ -6,7 +6,8 @@ form the compiled time loop takes a nonlinear force (``fivebar.numerics._kernels
 (:func:`fivebar.numerics.periodic.modal_period_map`) runs in the compiled loop instead of the
 Python loop with a callback at every Newton iteration.  Its data, made by
 :func:`pack_polynomial`: ``rdata`` the coefficients :math:`\delta_{rst}`, :math:`\gamma_{rstu}`
-and the two symmetrised tensors of the tangent, flat; ``idata = [n]``.  The force does not
+and the two symmetrised tensors of the tangent (made once, by ``_PolynomialForce``), flat;
+``idata = [n]``.  The force does not
 depend on the step point ``k``.  The tests hold it equal to the numpy form
 (``_PolynomialForce.__call__``) to round-off.  Loaded (and cached on disk) by
 :func:`fivebar.numerics._jitcache.import_cached`.
@@ -53,15 +54,13 @@ def polynomial_force(u, k, rdata, idata, f, Kt, tangent):
                 Kt[r, s] = -acc
 
 
-def pack_polynomial(delta: np.ndarray, gamma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(rdata, idata)`` of :func:`polynomial_force` for the coefficients ``delta`` (n, n, n) and ``gamma``
-    (n, n, n, n)."""
-    delta = np.asarray(delta, float)
-    gamma = np.asarray(gamma, float)
-    n = delta.shape[0]
-    dsym = delta + delta.transpose(0, 2, 1)
-    gsym = gamma + gamma.transpose(0, 2, 1, 3) + gamma.transpose(0, 3, 2, 1)
-    rdata = np.ascontiguousarray(np.concatenate([delta.ravel(), gamma.ravel(), dsym.ravel(), gsym.ravel()]))
+def pack_polynomial(delta: np.ndarray, gamma: np.ndarray, dsym: np.ndarray,
+                    gsym: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(rdata, idata)`` of :func:`polynomial_force` for the coefficients ``delta`` (n, n, n) and
+    ``gamma`` (n, n, n, n) and the tangent's tensors made from them (``_PolynomialForce``'s
+    ``dsym``, ``gsym``)."""
+    n = np.shape(delta)[0]
+    rdata = np.concatenate([np.ravel(X).astype(float) for X in (delta, gamma, dsym, gsym)])
     return rdata, np.array([n], dtype=np.int64)
 
 

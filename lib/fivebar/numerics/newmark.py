@@ -457,7 +457,7 @@ def _march(system: SecondOrderSystem, u0: ArrayLike, v0: ArrayLike, t0: float, d
     tol = np.array([rtol, xtol, atol])
 
     compiled_nl = None
-    if not linear and (sd is not None or time_invariant):
+    if not linear and sd is not None:
         get = getattr(system, "compiled_nonlinear", None)
         compiled_nl = get(sd) if callable(get) else None
     if _USE_KERNELS and (sd is not None or time_invariant) and (linear or compiled_nl is not None):

@@ -110,9 +110,9 @@ class PeriodicProblem:
     t0 : float
         Time at the start of the period (s).
     step_data : PeriodicStepData, optional
-        Precomputed per-step matrices (the compiled loop serves them); default: sampled from
-        the system when the system is linear and time-varying, or its nonlinear force is
-        compiled (:meth:`~fivebar.numerics.systems.System.compiled_nonlinear`), so that the
+        Precomputed per-step matrices (the compiled loop serves them, with a nonlinear force
+        the system supplies compiled, :meth:`~fivebar.numerics.systems.System.compiled_nonlinear`);
+        default: sampled from the system when the system is linear and time-varying, so that the
         compiled loop serves; else the Python loop calls the system's functions.
     scheme : Scheme, optional
         Time integrator (default :class:`~fivebar.numerics.schemes.Newmark`, average acceleration).
@@ -323,6 +323,7 @@ class _PolynomialForce:
 
     def __init__(self, delta: Array, gamma: Array) -> None:
         self.delta, self.gamma = delta, gamma
+        # the tangent's tensors: d/du_s of delta_rst u_s u_t and of gamma_rstu u_s u_t u_u
         self.dsym = delta + delta.transpose(0, 2, 1)
         self.gsym = gamma + gamma.transpose(0, 2, 1, 3) + gamma.transpose(0, 3, 2, 1)
         self._compiled: tuple | None = None
@@ -338,22 +339,16 @@ class _PolynomialForce:
             from ._jitcache import import_cached  # here: numba is heavy
 
             kern = import_cached(f"{__package__}._polynomial_kernel")
-            self._compiled = (kern.polynomial_force,) + kern.pack_polynomial(self.delta, self.gamma)
+            self._compiled = (kern.polynomial_force,) + kern.pack_polynomial(self.delta, self.gamma, self.dsym,
+                                                                             self.gsym)
         return self._compiled
 
 
 def _with_step_data(prob: PeriodicProblem) -> PeriodicProblem:
-    """Sample the per-step matrices and forces where the compiled loop then serves the system: a
-    linear time-varying one, or a nonlinear one whose force is compiled
-    (:meth:`~fivebar.numerics.systems.System.compiled_nonlinear`; sampled also when time-invariant,
-    so that each period reads its forces instead of calling ``force(t)`` at every step)."""
-    if prob.step_data is not None:
+    """Sample the per-step matrices of a linear time-varying system (the compiled loop serves it)."""
+    if prob.step_data is not None or getattr(prob.system, "nonlinear", None) is not None:
         return prob
-    if getattr(prob.system, "nonlinear", None) is not None:
-        get = getattr(prob.system, "compiled_nonlinear", None)
-        if not callable(get) or get(None) is None:
-            return prob  # a Python force: the Python loop calls the system's functions
-    elif getattr(prob.system, "time_invariant", False):
+    if getattr(prob.system, "time_invariant", False):
         return prob
     sd = PeriodicStepData.from_system(prob.system, prob.t0, prob.period, prob.steps)
     return PeriodicProblem(prob.system, prob.period, prob.steps, prob.t0, sd, prob.scheme, prob.options)

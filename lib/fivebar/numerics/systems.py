@@ -82,9 +82,9 @@ class System:
     nonlinear : None or callable ``(u, t) -> (f_nl, K_t)`` or ``u -> (f_nl, K_t)``
         Internal nonlinear force and its tangent ``d f_nl / d u``; None for a linear system.
         A callable that also has a method ``compiled() -> (force, rdata, idata)``, the same
-        force (independent of t) as the compiled loop takes it, is marched there
-        (:meth:`compiled_nonlinear`): the modal equations' polynomial force of
-        :func:`fivebar.numerics.periodic.modal_period_map` is one.
+        force (independent of t) as the compiled loop takes it, is marched there when the
+        step data are given (:meth:`compiled_nonlinear`): the modal equations' polynomial force
+        of :func:`fivebar.numerics.periodic.modal_period_map` is one.
     """
 
     def __init__(
