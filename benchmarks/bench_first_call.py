@@ -18,6 +18,12 @@ names: the script fails loudly if one is renamed):
   estimate           ``fivebar.analyses.steady._deflection_change``: S/2 against S
   other              the rest: validation, the store's bookkeeping, the result's checks
 
+On the peer's footing: the peer's setting was found by a convergence study against its own
+converged answer, and its run estimates no error.  ``same_footing`` does the same for the library:
+``steady_state(setup)`` at the fixed S = 25, 50, 100, ... (no ``tol``), the first whose midpoint
+curves of L2 and L3 are within 1 % of its S = 3200 orbit (``bench_story._curve_error``, the
+measure the peer's ladder used) timed as a first call, phase by phase like the call with ``tol``.
+
 Each phase is the median over ``--repeats`` runs of its own time (so the phases need not add up
 to the median total; ``other`` is the median of each run's remainder).  The peer is Exudyn at
 the coarsest setting within 1 % that ``bench_story.py`` found and recorded in
@@ -92,16 +98,23 @@ def timed_phases(acc: dict, counts: dict):
             setattr(owner, name, original)
 
 
-def first_calls(rpm: float, repeats: int) -> dict:
+def first_calls(rpm: float, repeats: int, steps_per_period: int | None = None) -> dict:
+    """A first call's phases: ``steady_state(setup, tol=0.01)``, or with ``steps_per_period``
+    the plain call at that S (no error estimate)."""
     s = Setup(load_params(), crank_speed_rpm=rpm, motors=False)
-    steady_state(s, tol=0.01)  # the compiled kernels loaded once
+    if steps_per_period is None:
+        call = lambda: steady_state(s, tol=0.01)  # noqa: E731
+    else:
+        s = s.replace(steps_per_period=steps_per_period)
+        call = lambda: steady_state(s)  # noqa: E731
+    call()  # the compiled kernels loaded once
     runs = []
     for _ in range(repeats):
         acc, counts = defaultdict(float), defaultdict(int)
         fivebar.clear_cache()
         with timed_phases(acc, counts):
             t = time.perf_counter()
-            r = steady_state(s, tol=0.01)
+            r = call()
             total = time.perf_counter() - t
         runs.append({"total": total, "acc": dict(acc), "counts": dict(counts)})
     med = lambda xs: 1e3 * statistics.median(xs)  # noqa: E731
@@ -109,8 +122,27 @@ def first_calls(rpm: float, repeats: int) -> dict:
     phases["other"] = med([run["total"] - sum(run["acc"].values()) for run in runs])
     return {"total_ms": med([run["total"] for run in runs]), "phases_ms": phases,
             "calls": {p: runs[0]["counts"].get(p, 0) for p in PHASES},
-            "S": r.dynamics.steps_per_period, "tried": r.accuracy["tried"], "n": r.dynamics.n,
+            "S": r.dynamics.steps_per_period, "tried": r.accuracy["tried"] if r.accuracy else None, "n": r.dynamics.n,
             "periods_ms": phases["monodromy periods"] + phases["plain periods"]}
+
+
+#: the fixed S tried on the peer's footing, coarsest first
+FOOTING_STEPS = (25, 50, 100, 200, 400, 800)
+
+
+def same_footing(rpm: float, repeats: int) -> dict:
+    """The library at its coarsest fixed S within 1 % of its S = 3200 orbit (the ladder tried and
+    the errors), and that S's first call (:func:`first_calls`)."""
+    from bench_story import _curve_error
+
+    s = Setup(load_params(), crank_speed_rpm=rpm, motors=False)
+    ref = steady_state(s.replace(steps_per_period=3200))
+    ladder = []
+    for S in FOOTING_STEPS:
+        ladder.append({"S": S, "error": _curve_error(steady_state(s.replace(steps_per_period=S)), ref)})
+        if ladder[-1]["error"] <= 0.01:
+            return {"ladder": ladder, "S": S, "error": ladder[-1]["error"], **first_calls(rpm, repeats, S)}
+    return {"ladder": ladder, "S": None}
 
 
 def peer(rpm: float, setting: dict, repeats: int) -> dict:
@@ -157,6 +189,9 @@ def main() -> None:
                                                                      "periodicity_tol")}, args.peer_repeats)
                 entry["budget_ms"] = entry["exudyn"]["ms"] / 3.0
                 entry["ratio_exudyn_over_first_call"] = entry["exudyn"]["ms"] / entry["total_ms"]
+            entry["same_footing"] = footing = same_footing(rpm, args.repeats)
+            if setting is not None and footing["S"] is not None:
+                footing["ratio_exudyn_over_first_call"] = entry["exudyn"]["ms"] / footing["total_ms"]
             res[f"{rpm:g}rpm"] = entry
     res["load"] = {"start": load0, "end": os.getloadavg()}
     text = json.dumps(res, indent=1)

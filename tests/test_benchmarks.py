@@ -55,6 +55,12 @@ def test_the_first_call_benchmark_runs_and_its_phases_add_up():
         assert sum(phases.values()) == pytest.approx(e["total_ms"], rel=1e-9)
         assert e["calls"]["build"] >= 2 and e["calls"]["monodromy periods"] >= 1  # S/2 and S
         assert e["budget_ms"] == pytest.approx(e["exudyn"]["ms"] / 3)
+        # on the peer's footing: the coarsest fixed S within 1 % of S = 3200, the one before it not
+        f = e["same_footing"]
+        assert f["S"] == f["ladder"][-1]["S"] and f["error"] <= 0.01
+        assert all(row["error"] > 0.01 for row in f["ladder"][:-1])
+        assert f["calls"]["estimate"] == 0 and f["calls"]["build"] == 1
+        assert sum(f["phases_ms"].values()) == pytest.approx(f["total_ms"], rel=1e-9)
 
 
 def test_the_modal_map_benchmark_runs_both_loops_on_one_problem():
