@@ -306,8 +306,8 @@ def test_floquet_multipliers_equal_those_of_the_finite_difference_monodromy(nonl
 
 def test_the_energy_norm_of_shooting_is_the_quadratic_form_of_every_state():
     """Shooting measures its residual and the orbit's size in sqrt(u K0 u + v M0 v) (K0, M0 at
-    t = 0; K0 with the small circulatory term of Kelvin-Voigt damping, not symmetric); for one
-    state and for every row of a period's (steps, n) arrays, against the sums written out."""
+    t = 0), for one state and for every row of a period's (steps, n) arrays: against the sums
+    written out (K and M swapped, or u paired with v, fail it)."""
     from fivebar.analyses.steady import _energy_norm
 
     d = LinkageDynamics(Setup(P, crank_speed_rpm=300, steps_per_period=50, motors=True, nonlinear=True))
