@@ -440,8 +440,9 @@ class LinkageDynamics:
         while lam < 1.0:
             target = min(1.0, lam + dlam)
             v = u.copy() if slope is None else u + (target - lam) * slope
+            at = residual(v, target)  # (r, K_t) at v: the accepted trial's, kept for the next iteration
             for _ in range(max_iter):
-                r, Kt = residual(v, target)
+                r, Kt = at
                 rn = float(np.linalg.norm(r))
                 if rn <= 1e-12 * scale:
                     break
@@ -449,17 +450,18 @@ class LinkageDynamics:
                 step = 1.0
                 while step > 1e-4:  # backtracking: accept a step that lowers the residual
                     trial = v - step * dv
-                    if float(np.linalg.norm(residual(trial, target)[0])) < rn:
+                    at = residual(trial, target)
+                    if float(np.linalg.norm(at[0])) < rn:
                         break
                     step *= 0.5
                 v = trial
             else:
-                rn = float(np.linalg.norm(residual(v, target)[0]))
+                rn = float(np.linalg.norm(at[0]))
             if rn <= 1e-9 * scale:
                 u, lam = v, target
                 dlam = min(2.0 * dlam, 1.0)
                 if lam < 1.0:  # the path's tangent, (K + K_t) du/dlam = F: Euler's predictor
-                    slope = np.linalg.solve(K + self.nonlinear(u, t)[1], F)
+                    slope = np.linalg.solve(K + at[1], F)  # (K_t at u = v: kept from its residual)
             elif start is not None:  # the warm start failed: continuation from zero
                 u, dlam, start, slope = np.zeros(self.n), 0.25, None, None
             else:
