@@ -65,6 +65,21 @@ def test_least_recently_used_goes_first_within_a_byte_bound_by_hand():
     assert s.size() == (1, 80_000 + _key_bytes(("t", 6)))
 
 
+def test_what_a_mapping_holds_is_counted_in_its_keys_too_unless_they_are_names():
+    """A dictionary's values are counted; its keys too where one is not a string (a tuple key is
+    a container; a string, like a number, is not counted, so a dictionary of names is walked by
+    its values alone): the bytes a stored dictionary adds, by hand."""
+    a, b = np.zeros(125), np.zeros(250)  # 1000 and 2000 bytes
+    s = Store(max_bytes=10**6, max_entries=10)
+    names = {"a": a, "b": b}
+    s.put(("t", 0), names)
+    assert s.size().bytes == _key_bytes(("t", 0)) + sys.getsizeof(names) + 3000
+    tupled = {("a", 1): a, "b": b}  # a's buffer is held already: only the new containers add
+    s.put(("t", 1), tupled)
+    assert s.size().bytes == (_key_bytes(("t", 0)) + sys.getsizeof(names) + 3000 + _key_bytes(("t", 1))
+                              + sys.getsizeof(tupled) + sys.getsizeof(("a", 1)))
+
+
 def test_a_key_that_cannot_be_hashed_is_computed_each_time():
     s = Store()
     calls = []

@@ -331,7 +331,7 @@ def test_hill_multipliers_of_a_time_varying_system_against_dop853():
 def _held_bytes(obj) -> int:
     """Bytes of the NumPy arrays reachable from ``obj`` (the library store's own count)."""
     from fivebar.cache import _parts
-    return sum(nbytes for x, nbytes in _parts([obj], {}).values() if isinstance(x, np.ndarray))
+    return sum(nbytes for x, nbytes in _parts([obj], {}, {}).values() if isinstance(x, np.ndarray))
 
 
 def test_a_solution_keeps_no_dense_matrix_of_the_balance():

@@ -88,15 +88,15 @@ def _kind(t: type) -> int:
     return _LEAF
 
 
-def _parts(roots: list, frozen: dict[int, tuple[Any, dict]]) -> dict[int, tuple[Any, int]]:
+def _parts(roots: list, frozen: dict[int, tuple[Any, dict]], kinds: dict[type, int]) -> dict[int, tuple[Any, int]]:
     """``id -> (object, bytes)`` of what the ``roots`` hold: the arrays' buffers (their owning
     arrays, ``nbytes``) and every other object reached through containers and the instances and
     closures of the library's own classes and functions (``sys.getsizeof``; each once).  What a
     frozen instance of the library (a dataclass: a parameter set, a set-up) holds is looked up
     in ``frozen`` (id -> (instance, its parts)), or walked once and kept there: a parameter set
-    is reached from most entries."""
+    is reached from most entries.  ``kinds``: the kind of each type met (the store's: a type is
+    classified once, not at every entry)."""
     seen: dict[int, tuple[Any, int]] = {}
-    kinds: dict[type, int] = {}
     stack = list(roots)
     while stack:
         x = stack.pop()
@@ -120,7 +120,10 @@ def _parts(roots: list, frozen: dict[int, tuple[Any, dict]]) -> dict[int, tuple[
         if k == _SEQUENCE:
             stack.extend(x)
         elif k == _MAPPING:
-            stack.extend(x.keys())
+            for key in x:  # (an instance's attribute names are strings, not counted: not pushed)
+                if type(key) is not str:
+                    stack.extend(x.keys())
+                    break
             stack.extend(x.values())
         elif k == _FUNCTION:
             if _ours(x.__module__) and x.__closure__:
@@ -130,7 +133,7 @@ def _parts(roots: list, frozen: dict[int, tuple[Any, dict]]) -> dict[int, tuple[
         elif k == _FROZEN:
             hit = frozen.get(i)
             if hit is None or hit[0] is not x:
-                hit = frozen[i] = (x, _parts(_members(x), frozen))
+                hit = frozen[i] = (x, _parts(_members(x), frozen, kinds))
             seen.update(hit[1])
     return seen
 
@@ -195,6 +198,7 @@ class Store:
         self._data: OrderedDict[Hashable, tuple[Any, tuple[int, ...], Any]] = OrderedDict()
         self._held: dict[int, list] = {}  # id -> [object, bytes, entries holding it]
         self._frozen: dict[int, tuple[Any, dict]] = {}  # id -> (frozen instance held, its parts)
+        self._kinds: dict[type, int] = {}  # the walk's kind of each type met (see _parts)
         self._owned: dict[Any, Hashable] = {}  # weak reference to an owner -> its entry's key
         self._dead: collections.deque = collections.deque()  # references whose owner is gone
         self._bytes = 0
@@ -293,7 +297,7 @@ class Store:
     def _add(self, key, value, owner) -> None:
         """Count the new entry ``key -> value`` (what the key holds too), the last in the
         order, and forget the oldest while a bound is exceeded."""
-        parts = _parts([key, value], self._frozen)
+        parts = _parts([key, value], self._frozen, self._kinds)
         for i, (obj, nbytes) in parts.items():
             h = self._held.get(i)
             if h is None:
