@@ -22,7 +22,8 @@ On the peer's footing: the peer's setting was found by a convergence study again
 converged answer, and its run estimates no error.  ``same_footing`` does the same for the library:
 ``steady_state(setup)`` at the fixed S = 25, 50, 100, ... (no ``tol``), the first whose midpoint
 curves of L2 and L3 are within 1 % of its S = 3200 orbit (``bench_story._curve_error``, the
-measure the peer's ladder used) timed as a first call, phase by phase like the call with ``tol``.
+measure the peer's ladder used) timed as a first call, phase by phase like the call with ``tol``,
+and at new speeds 1 % apart (the model's samples in the store).
 
 Each phase is the median over ``--repeats`` runs of its own time (so the phases need not add up
 to the median total; ``other`` is the median of each run's remainder).  The peer is Exudyn at
@@ -132,7 +133,10 @@ FOOTING_STEPS = (25, 50, 100, 200, 400, 800)
 
 def same_footing(rpm: float, repeats: int) -> dict:
     """The library at its coarsest fixed S within 1 % of its S = 3200 orbit (the ladder tried and
-    the errors), and that S's first call (:func:`first_calls`)."""
+    the errors), that S's first call (:func:`first_calls`), and a new speed there: the median of
+    ``repeats`` calls at speeds 1 %, 2 %, ... above ``rpm`` after the one at ``rpm`` (the model's
+    samples, which do not depend on the speed, in the store; no warm start: at a fixed S the
+    library takes none)."""
     from bench_story import _curve_error
 
     s = Setup(load_params(), crank_speed_rpm=rpm, motors=False)
@@ -141,7 +145,17 @@ def same_footing(rpm: float, repeats: int) -> dict:
     for S in FOOTING_STEPS:
         ladder.append({"S": S, "error": _curve_error(steady_state(s.replace(steps_per_period=S)), ref)})
         if ladder[-1]["error"] <= 0.01:
-            return {"ladder": ladder, "S": S, "error": ladder[-1]["error"], **first_calls(rpm, repeats, S)}
+            out = {"ladder": ladder, "S": S, "error": ladder[-1]["error"], **first_calls(rpm, repeats, S)}
+            fivebar.clear_cache()
+            s = s.replace(steps_per_period=S)
+            steady_state(s)
+            ts = []
+            for k in range(1, repeats + 1):
+                t = time.perf_counter()
+                steady_state(s.replace(crank_speed_rpm=rpm * (1.0 + 0.01 * k)))
+                ts.append(time.perf_counter() - t)
+            out["new_speed_ms"] = 1e3 * statistics.median(ts)
+            return out
     return {"ladder": ladder, "S": None}
 
 
@@ -192,6 +206,7 @@ def main() -> None:
             entry["same_footing"] = footing = same_footing(rpm, args.repeats)
             if setting is not None and footing["S"] is not None:
                 footing["ratio_exudyn_over_first_call"] = entry["exudyn"]["ms"] / footing["total_ms"]
+                footing["ratio_exudyn_over_new_speed"] = entry["exudyn"]["ms"] / footing["new_speed_ms"]
             res[f"{rpm:g}rpm"] = entry
     res["load"] = {"start": load0, "end": os.getloadavg()}
     text = json.dumps(res, indent=1)

@@ -61,6 +61,8 @@ def test_the_first_call_benchmark_runs_and_its_phases_add_up():
         assert all(row["error"] > 0.01 for row in f["ladder"][:-1])
         assert f["calls"]["estimate"] == 0 and f["calls"]["build"] == 1
         assert sum(f["phases_ms"].values()) == pytest.approx(f["total_ms"], rel=1e-9)
+        assert 0 < f["new_speed_ms"] and f["ratio_exudyn_over_new_speed"] == pytest.approx(
+            e["exudyn"]["ms"] / f["new_speed_ms"])
 
 
 def test_the_modal_map_benchmark_runs_both_loops_on_one_problem():
