@@ -120,9 +120,12 @@ def _parts(roots: list, frozen: dict[int, tuple[Any, dict]], kinds: dict[type, i
         if k == _SEQUENCE:
             stack.extend(x)
         elif k == _MAPPING:
-            for key in x:  # (an instance's attribute names are strings, not counted: not pushed)
+            # the keys unless all are strings (an instance's attribute names: not counted), read
+            # at once (list() does not let another thread change the dictionary while it reads)
+            keys = list(x)
+            for key in keys:
                 if type(key) is not str:
-                    stack.extend(x.keys())
+                    stack.extend(keys)
                     break
             stack.extend(x.values())
         elif k == _FUNCTION:
