@@ -94,6 +94,21 @@ def test_another_parameter_and_bad_input(setup):
         follow(setup, 30.0)
 
 
+def test_a_result_is_of_its_own_scheme_whatever_was_solved_before():
+    # set-ups that differ only in the scheme share one LinkageDynamics (the store's), built by the
+    # first solved: a result's set-up, and what explain marches, must still be its own scheme's.
+    # With the default scheme solved first, the paper's rule at S = 100 (its discrete orbit
+    # unstable, errata E26) was explained with the default scheme's map: "stable period-1"
+    p = fivebar.load_params()
+    default = Setup(p, steps_per_period=100, nonlinear=False)
+    paper = default.replace(scheme=fivebar.PAPER_SCHEME)
+    first = steady_state(default)
+    res = steady_state(paper, explain=True)
+    assert res.dynamics is first.dynamics  # (the case: one dynamics for both)
+    assert res.setup == paper and first.setup == default
+    assert res.stable is False and res.explained.kind == "diverges"
+
+
 def test_steady_state_explain_names_what_a_march_from_an_unstable_orbit_does():
     # the paper's rule at S = 100 makes the linear model's orbit unstable (errata E26, multiplier
     # about 65): a linear map with a multiplier outside the unit circle grows as mu^k, so the march

@@ -96,8 +96,13 @@ class Response:
     # --- what it is ---------------------------------------------------------------------------
     @property
     def setup(self) -> Setup:
-        """The problem solved (``dynamics.setup``)."""
-        return self.dynamics.setup
+        """The problem solved: the dynamics' set-up with this result's scheme.  (Set-ups that
+        differ only in the scheme share one :class:`~fivebar.model.dynamics.LinkageDynamics`,
+        built by whichever was solved first, so its ``setup`` may name another scheme.)"""
+        s = self.dynamics.setup
+        if self.scheme is None or s.scheme == self.scheme:
+            return s
+        return s.replace(scheme=self.scheme)
 
     @property
     def params(self) -> Params:
