@@ -71,3 +71,20 @@ def test_the_modal_map_benchmark_runs_both_loops_on_one_problem():
     assert c["continuation_points"] == py["continuation_points"] and len(c["folds"]) == 2
     assert out["fold_difference"] < 1e-9 and out["state_difference_relative"] < 1e-12
     assert set(out["speed_up"]) == {"period_ms", "period_with_monodromy_ms", "continuation_s"}
+
+
+def test_the_sweep_floor_benchmark_runs_and_its_rows_answer_the_same_question():
+    out = _run("benchmarks/bench_sweep_floor.py", "--repeats", "1")
+    # from the neighbouring speed's orbit or from the static start: the same orbit, to shooting's tolerance
+    for stretch in out["warm_chain"].values():
+        assert stretch["speeds"] == 40 and stretch["largest_difference_warm_vs_cold"] < 1e-6
+        assert stretch["warm_periods_per_row_mean"] >= 1 and stretch["cold_periods_per_row_mean"] >= 1
+    # the step's error falls as S doubles (a second-order scheme), and the file's S = 800 is within 1 %
+    err = {S: out["fixed_S"][f"S{S}"]["largest_difference_vs_S1600"] for S in (200, 400, 800)}
+    assert err[800] < err[400] < err[200] and err[800] <= 0.01
+    for S in (800, 400):
+        row, floor = out["cold_rows"][f"S{S}"], out["floor"][f"S{S}"]
+        assert row["periods_per_row_mean"] >= 1 and 0 < row["other_ms_per_row_median"] < row["ms_per_row_median"]
+        assert floor["sweep_s_on_2_processes"] == pytest.approx(100 * (floor["monodromy_period_ms"] + floor["other_ms"]) / 1e3)
+    for case in out["period_ms"].values():  # carrying 2 n directions costs more than the period alone
+        assert case["monodromy"] > case["plain"] > 0
