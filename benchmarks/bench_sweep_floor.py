@@ -11,9 +11,10 @@ largest Floquet multiplier.  This script measures, in one process, one BLAS thre
   cold_rows    ``sweep_point`` (the sweep's row) at every tenth of the 200 speeds and at 600
                r/min (21 speeds), at S = 800 and S = 400: milliseconds a row, the part of them
                not spent in periods (the model at the new speed, the static start, the
-               quasi-static response, the amplitudes and the validity checks), and the periods
-               a row integrates (shooting's periods, and one with the monodromy matrix for the
-               multipliers where the last period did not carry it)
+               quasi-static response, the amplitudes and the validity checks), the periods a
+               row integrates (shooting's periods, and one with the monodromy matrix for the
+               multipliers where the last period did not carry it), and the milliseconds of
+               shooting and the multipliers alone (as ``warm_chain`` times its rows)
   warm_chain   the speeds of two stretches of the 200 (40 consecutive speeds each, about 247-361
                and 484-600 r/min) solved one after the other at S = 800, each from the orbit of
                the speed before (scaled as the quasi-static response scales with the speed, and
@@ -21,7 +22,8 @@ largest Floquet multiplier.  This script measures, in one process, one BLAS thre
                first Jacobian of the chord iteration (``fivebar.analyses.steady._shooting``'s
                ``monodromy``, what ``steady_state(..., tol=..., start=...)`` does at each S): the
                periods and milliseconds a row, against the rows from the static start at the
-               same speeds, and the largest difference of their peak-to-peak values
+               same speeds, and the largest difference of their peak-to-peak values (times:
+               shooting and the multipliers, the row's other costs left out)
   fixed_S      the rows' L2 and L3 peak-to-peak values at S = 200, 400 and 800 against S = 1600
                at the 21 speeds: the largest relative difference of each S, and where
   floor        a row started on its orbit exactly (a perfect predictor): one period with the
@@ -111,7 +113,7 @@ def cold_rows(p):
 
     out = {}
     for S in (800, 400):
-        ms, other, periods = [], [], []
+        ms, other, periods, shooting = [], [], [], []
         for i in CHECKED:
             s = Setup(p, crank_speed_rpm=float(SPEEDS[i]), steps_per_period=S)
             steady._period, spent[0] = timed, 0.0
@@ -122,11 +124,15 @@ def cold_rows(p):
             finally:
                 steady._period = inner
             other.append(ms[-1] - 1e3 * spent[0])
-            st = steady._shooting(s, None, None, 1e-10, 20)  # the same orbit, to count its periods
-            periods.append(st.periods + _own_monodromy(st)[1])
+            t = time.perf_counter()  # the same orbit and its multipliers alone, its periods counted
+            st = steady._shooting(s, None, None, 1e-10, 20)
+            extra = _own_monodromy(st)[1]
+            shooting.append(1e3 * (time.perf_counter() - t))
+            periods.append(st.periods + extra)
         out[f"S{S}"] = {"speeds": len(CHECKED), "ms_per_row_median": statistics.median(ms),
                         "ms_per_row_mean": float(np.mean(ms)), "periods_per_row_mean": float(np.mean(periods)),
-                        "other_ms_per_row_median": statistics.median(other)}
+                        "other_ms_per_row_median": statistics.median(other),
+                        "shooting_ms_per_row_mean": float(np.mean(shooting))}
     return out
 
 
