@@ -350,7 +350,9 @@ def test_a_new_speed_warm_started_from_the_last_meets_the_tolerance_and_the_cold
     S = 3200 solution, choose the S of a cold start, agree with the cold start's curves to well
     below tol (the inner tolerance), be periodic, and (the point of the warm start; at 300
     r/min) cost less than the cold start: fewer periods with a monodromy matrix (which cost
-    about two without), and fewer in all counting those as two."""
+    about two without), and fewer in all counting those as two.  At 600 r/min, where the last
+    speed's matrices fall short, it may cost at most one period more than the cold start (the
+    first new speed tried them at S = 50, 100 and 200 and cost 15 against 10)."""
     import fivebar.analyses.steady as st
 
     s = Setup(P, motors=False, nonlinear=True)
@@ -383,6 +385,8 @@ def test_a_new_speed_warm_started_from_the_last_meets_the_tolerance_and_the_cold
         assert warm.residual <= 1e-6
         if rpm == 300.0:  # near 600 r/min the last speed's matrices fall short (see _to_tolerance)
             assert warm_mono < cold_mono and warm_cost < cold_cost, (warm_mono, cold_mono, warm_cost, cold_cost)
+        else:  # where they fall short, only the first S of the call pays for trying them
+            assert warm_cost <= cold_cost + 1, (warm_mono, cold_mono, warm_cost, cold_cost)
         last = warm
 
 

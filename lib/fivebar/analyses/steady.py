@@ -776,7 +776,9 @@ def _to_tolerance(s: Setup, method: str, tol: float, memo: dict | None = None) -
     the two), and takes the remembered monodromy matrix of that S as the chord iteration's
     Jacobian: one to three periods without a monodromy matrix per S (where the multipliers
     turn quickly with the speed, as near 600 r/min, a neighbouring speed's matrix falls short;
-    from then on that S takes its own, one period with it).  The S tried and chosen
+    from then on that S takes its own, one period with it, and so do the finer S of the call,
+    without trying theirs: the modes that turn are resolved at every S, and at 600 r/min the
+    matrix fell short at each S of 50, 100, 200, two wasted periods each).  The S tried and chosen
     are those of a first call (50, 100, ...), and the orbits differ from a first call's only
     within the inner tolerance of the orbit (relative periodicity residual 1e-3 ``tol``, at
     most 1e-6).
@@ -786,6 +788,7 @@ def _to_tolerance(s: Setup, method: str, tol: float, memo: dict | None = None) -
     S = S_min
     solved: list[SteadyState] = []
     stale: set[int] = set() if memo is None else set(memo["stale"])
+    short = False  # the last speed's matrix fell short at a coarser S of this call
     prev: SteadyState | None = None
     tried: list[str] = []
     while S <= _TOL_MAX_STEPS:
@@ -803,16 +806,22 @@ def _to_tolerance(s: Setup, method: str, tol: float, memo: dict | None = None) -
                         x = x + _predict(memo, S, s.crank_speed_rpm) - _predict(memo, lo, s.crank_speed_rpm)
                     n = dyn.n
                     start = (x[:n], x[n:])
-                    Phi = None if memo is None or S in memo["stale"] else memo["monodromy"].get(S)
                 elif memo is not None and S in memo["x"]:  # the remembered orbit, scaled to this speed
                     x, n = _predict(memo, S, s.crank_speed_rpm), dyn.n
-                    start, Phi = (x[:n], x[n:]), None if S in memo["stale"] else memo["monodromy"].get(S)
+                    start = (x[:n], x[n:])
                 else:
-                    start, Phi = (None, None), None
+                    start = (None, None)
+                # the last speed's monodromy matrix of this S as the first Jacobian, unless it fell
+                # short at this S before or at a coarser S of this call (the modes whose multipliers
+                # turn quickly with the speed are resolved at every S: the finer S take their own too)
+                Phi = None if memo is None or start[0] is None or S in stale or short else memo["monodromy"].get(S)
+                if short:
+                    stale.add(S)
                 cur = _shooting(sS, *start, inner, shooting.__wrapped__.__defaults__[3],  # its max_iter
                                 monodromy=Phi)
                 if Phi is not None and "monodromy" in cur._cache:
                     stale.add(S)  # the last speed's matrix fell short: take this S's own from now on
+                    short = True
             else:
                 cur = march(sS, tol=inner)
         except (NewtonConvergenceError, SteadyStateError) as exc:
