@@ -776,9 +776,9 @@ def _to_tolerance(s: Setup, method: str, tol: float, memo: dict | None = None) -
     the two), and takes the remembered monodromy matrix of that S as the chord iteration's
     Jacobian: one to three periods without a monodromy matrix per S (where the multipliers
     turn quickly with the speed, as near 600 r/min, a neighbouring speed's matrix falls short;
-    from then on that S takes its own, one period with it, and so do the finer S of the call,
-    without trying theirs: the modes that turn are resolved at every S, and at 600 r/min the
-    matrix fell short at each S of 50, 100, 200, two wasted periods each).  The S tried and chosen
+    from then on that S takes its own, one period with it, and so do the finer S, without
+    trying theirs: the modes that turn are resolved at every S, and at 600 r/min the matrix fell
+    short at each S of 50, 100, 200, two wasted periods each).  The S tried and chosen
     are those of a first call (50, 100, ...), and the orbits differ from a first call's only
     within the inner tolerance of the orbit (relative periodicity residual 1e-3 ``tol``, at
     most 1e-6).
@@ -788,7 +788,7 @@ def _to_tolerance(s: Setup, method: str, tol: float, memo: dict | None = None) -
     S = S_min
     solved: list[SteadyState] = []
     stale: set[int] = set() if memo is None else set(memo["stale"])
-    short = False  # the last speed's matrix fell short at a coarser S of this call
+    short = False  # the last speed's matrix fell short at a coarser S (in this call or before)
     prev: SteadyState | None = None
     tried: list[str] = []
     while S <= _TOL_MAX_STEPS:
@@ -812,7 +812,7 @@ def _to_tolerance(s: Setup, method: str, tol: float, memo: dict | None = None) -
                 else:
                     start = (None, None)
                 # the last speed's monodromy matrix of this S as the first Jacobian, unless it fell
-                # short at this S before or at a coarser S of this call (the modes whose multipliers
+                # short at this S or a coarser one, in this call or before (the modes whose multipliers
                 # turn quickly with the speed are resolved at every S: the finer S take their own too)
                 Phi = None if memo is None or start[0] is None or S in stale or short else memo["monodromy"].get(S)
                 if short:
@@ -821,7 +821,7 @@ def _to_tolerance(s: Setup, method: str, tol: float, memo: dict | None = None) -
                                 monodromy=Phi)
                 if Phi is not None and "monodromy" in cur._cache:
                     stale.add(S)  # the last speed's matrix fell short: take this S's own from now on
-                    short = True
+                short = short or S in stale
             else:
                 cur = march(sS, tol=inner)
         except (NewtonConvergenceError, SteadyStateError) as exc:
