@@ -9,7 +9,7 @@ Prints one JSON object (and writes it with ``--out``).  Sections (times in ms un
                   model caches emptied before each run; ``tol_new_speed``: the same call at other speeds (1 %
                   apart, each warm-started from the one before with ``start=``, the speed-independent
                   samples cached: what each further speed of a study costs; ``tol_new_speed_no_start``
-                  without ``start``); ``tol_S``, ``tol_estimate`` and ``tol_true_error`` (against the
+                  without ``start``; ``tol_new_speed_S`` the S chosen at each of them); ``tol_S``, ``tol_estimate`` and ``tol_true_error`` (against the
                   S = 3200 orbit, the largest deviation of the L2 and L3 midpoint curves relative
                   to their peak-to-peak value); ``default_first`` / ``default_repeat``:
                   ``steady_state(params)`` at the parameter file's S = 800; ``march``: marching
@@ -75,22 +75,24 @@ def _new_speeds(setup, start, repeats):
     """Median time of ``steady_state(setup at a new speed, tol=0.01, start=...)`` over
     ``repeats`` speeds 1 % apart above ``setup``'s, each warm-started from the one before
     (``start``: the result at ``setup``'s speed), and the same calls without ``start`` (the
-    samples cached, no predictor): what each further speed of a study costs.  ``start`` is the
+    samples cached, no predictor): what each further speed of a study costs; and the S chosen
+    at each of those speeds.  ``start`` is the
     library's warm start of a new speed near a solved one since results depend on their inputs
     alone (until 2026-12-03 the library remembered the last orbit itself)."""
     from fivebar import steady_state
 
-    warm, cold = [], []
+    warm, cold, steps = [], [], []
     prev = start
     for k in range(1, repeats + 1):
         s = setup.replace(crank_speed_rpm=setup.crank_speed_rpm * (1.0 + 0.01 * k))
         t = time.perf_counter()
         prev = steady_state(s, tol=0.01, start=prev)
         warm.append(time.perf_counter() - t)
+        steps.append(prev.dynamics.steps_per_period)
         t = time.perf_counter()
         steady_state(s, tol=0.01)
         cold.append(time.perf_counter() - t)
-    return statistics.median(warm), statistics.median(cold)
+    return statistics.median(warm), statistics.median(cold), steps
 
 
 def _first(fn, repeats=1):
@@ -142,12 +144,13 @@ def steady_costs(repeats):
             s = Setup(p, crank_speed_rpm=rpm, motors=False, nonlinear=nl)
             ref = steady_state(s.replace(steps_per_period=3200))
             first, r = _first(lambda: steady_state(s, tol=0.01), repeats)
-            new, cold = _new_speeds(s, r, repeats)
+            new, cold, steps = _new_speeds(s, r, repeats)
             dfirst, d = _first(lambda: steady_state(s), repeats)
             drep, _ = _t(lambda: steady_state(s), repeats)
             mar, m = _t(lambda: steady_state(s, method="march"))
             out[f"{'nonlinear' if nl else 'linear'}_{rpm:g}rpm"] = {
-                "tol_first": 1e3 * first, "tol_new_speed": 1e3 * new, "tol_new_speed_no_start": 1e3 * cold, "tol_S": r.dynamics.steps_per_period,
+                "tol_first": 1e3 * first, "tol_new_speed": 1e3 * new, "tol_new_speed_no_start": 1e3 * cold,
+                "tol_new_speed_S": steps, "tol_S": r.dynamics.steps_per_period,
                 "tol_estimate": r.accuracy["estimate"], "tol_true_error": _curve_error(r, ref),
                 "default_first": 1e3 * dfirst, "default_repeat": 1e3 * drep, "default_S": d.dynamics.steps_per_period,
                 "default_true_error": _curve_error(d, ref), "march": 1e3 * mar,
@@ -248,9 +251,10 @@ def exudyn_cost(quick, repeats):
             entry["exudyn_coarsest_within_1pct"] = {**chosen, "ms": 1e3 * ex}
         fb_ref = steady_state(Setup(p, crank_speed_rpm=rpm, motors=False, steps_per_period=3200))
         first, r = _first(lambda: steady_state(Setup(p, crank_speed_rpm=rpm, motors=False), tol=0.01), repeats)
-        new, cold = _new_speeds(Setup(p, crank_speed_rpm=rpm, motors=False), r, repeats)
+        new, cold, steps = _new_speeds(Setup(p, crank_speed_rpm=rpm, motors=False), r, repeats)
         entry["fivebar_tol_0.01"] = {"first_ms": 1e3 * first, "new_speed_ms": 1e3 * new,
-                                     "new_speed_no_start_ms": 1e3 * cold, "S": r.dynamics.steps_per_period,
+                                     "new_speed_no_start_ms": 1e3 * cold, "new_speed_S": steps,
+                                     "S": r.dynamics.steps_per_period,
                                      "estimate": r.accuracy["estimate"], "error_vs_S3200": _curve_error(r, fb_ref)}
         if chosen is not None:
             entry["ratio_exudyn_over_fivebar"] = {"first": ex / first, "new_speed": ex / new}
@@ -325,7 +329,7 @@ def scaling(quick, repeats):
             except Exception as exc:  # noqa: BLE001 - reported
                 out.append({"mesh": mesh, "S": S, "error": f"{type(exc).__name__}: {str(exc)[:200]}"})
         dt, r = _first(lambda: steady_state(base.replace(elements_per_link=mesh), tol=0.01), repeats)
-        dn, _ = _new_speeds(base.replace(elements_per_link=mesh), r, 3)
+        dn, _, _ = _new_speeds(base.replace(elements_per_link=mesh), r, 3)
         out.append({"mesh": mesh, "S": "tol=0.01", "chosen_S": r.dynamics.steps_per_period, "n": r.dynamics.n,
                     "ms": 1e3 * dt, "new_speed_ms": 1e3 * dn})
     exps = {}
