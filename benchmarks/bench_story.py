@@ -9,11 +9,11 @@ Prints one JSON object (and writes it with ``--out``).  Sections (times in ms un
                   model caches emptied before each run; ``tol_new_speed``: the same call at other speeds (1 %
                   apart, each warm-started from the one before with ``start=``, the speed-independent
                   samples cached: what each further speed of a study costs; ``tol_new_speed_no_start``
-                  without ``start``; ``tol_new_speed_S`` the S chosen at each of them); ``tol_S``, ``tol_estimate`` and ``tol_true_error`` (against the
-                  S = 3200 orbit, the largest deviation of the L2 and L3 midpoint curves relative
-                  to their peak-to-peak value); ``default_first`` / ``default_repeat``:
-                  ``steady_state(params)`` at the parameter file's S = 800; ``march``: marching
-                  from rest at S = 800.
+                  without ``start``; ``tol_new_speed_S`` the S chosen at each of them); ``tol_S``,
+                  ``tol_estimate`` and ``tol_true_error`` (against the S = 3200 orbit, the largest
+                  deviation of the L2 and L3 midpoint curves relative to their peak-to-peak value);
+                  ``default_first`` / ``default_repeat``: ``steady_state(params)`` at the parameter
+                  file's S = 800; ``march``: marching from rest at S = 800.
   exudyn_ms       the peer (Exudyn, if installed) at its coarsest setting within 1 %, found here
                   from a ladder of meshes, steps per period and run-ups (every rung tried is
                   listed with its error against the peer's converged setting), beside
@@ -76,9 +76,9 @@ def _new_speeds(setup, start, repeats):
     ``repeats`` speeds 1 % apart above ``setup``'s, each warm-started from the one before
     (``start``: the result at ``setup``'s speed), and the same calls without ``start`` (the
     samples cached, no predictor): what each further speed of a study costs; and the S chosen
-    at each of those speeds.  ``start`` is the
-    library's warm start of a new speed near a solved one since results depend on their inputs
-    alone (until 2026-12-03 the library remembered the last orbit itself)."""
+    at each of those speeds.  ``start`` is the library's warm start of a new speed near a
+    solved one since results depend on their inputs alone (until 2026-12-03 the library
+    remembered the last orbit itself)."""
     from fivebar import steady_state
 
     warm, cold, steps = [], [], []
