@@ -340,6 +340,30 @@ def test_long_words_in_table_cells_get_break_points() -> None:
     assert "".join(t for t in para.findall(nodes.Text) if t.parent is para) == str(prose)
 
 
+def test_computed_prose_is_set_as_the_text_and_code_output_as_output() -> None:
+    """A cell whose output is Markdown prose (a paragraph, a list: numbers the chapter computed)
+    leaves its output container, so that it is not set as a code cell's output (indented, small:
+    sphinx-jupyterbook-latex wraps every ``cell_output`` container in ``sphinxVerbatimOutput``);
+    an output with printed text, a figure or a table keeps it, and so does a container that is not
+    a cell's output."""
+    from docutils import nodes
+
+    import fivebar_latex
+
+    def output(*children, classes=("cell_output",)):
+        return nodes.container("", *children, classes=list(classes))
+    prose = output(nodes.paragraph(text="Along the cycle ..."),
+                   nodes.bullet_list("", nodes.list_item("", nodes.paragraph(text="a point"))))
+    kept = [output(nodes.literal_block(text="printed")),
+            output(nodes.paragraph(text="see the figure"), nodes.image(uri="fig.png")),
+            output(nodes.paragraph(text="a caption"), nodes.table()),
+            output(nodes.paragraph(text="not an output"), classes=("cell_input",))]
+    section = nodes.section("", prose, *kept)
+    fivebar_latex._unwrap_prose_outputs(section)
+    assert [type(c) for c in section.children[:2]] == [nodes.paragraph, nodes.bullet_list]
+    assert section.children[2:] == kept
+
+
 #: LaTeX's overfull boxes wider than this (pt; 10 pt is 3.5 mm) are text past the edge of its
 #: column or of the page that a reader sees
 OVERFULL_PT = 10.0

@@ -21,6 +21,8 @@ number, and the index (``\\printindex``, built by makeindex) lists the terms of
 * **Long words** in table cells (code, test names) and long inline code in the text may break
   after ``_ . / :: ( , =``: TeX does not hyphenate them, so a name such as
   ``tests/test_elements.py::test_every_interpolation_condition_holds`` ran past its column.
+* **Computed prose** (a cell's Markdown output: the numbers of a paragraph come from the
+  chapter's computations) is set as the text around it, not as a code cell's output.
 * **Web-only pages**: the API reference is replaced by a one-paragraph chapter that points to
   the HTML book's API page (the PDF stays a book: 102 of its 291 pages were API reference),
   and the "References" page, empty once its bibliography has moved to the end of the book, is
@@ -168,6 +170,22 @@ def _fit_columns(table: nodes.table) -> None:
     table["classes"].append("colwidths-given")
 
 
+def _unwrap_prose_outputs(document: nodes.Node) -> None:
+    """A cell's output that is text the chapter writes (Markdown: paragraphs, lists, an
+    admonition; no code output, figure or table) is set as the body text around it, full width
+    and at the body's size, as the HTML book shows it: its container is taken away, so that
+    sphinx-jupyterbook-latex (later, at priority 999) does not wrap it as the output of code
+    (``sphinxVerbatimOutput``, which the book's class indents and sets small).  Tables stay in
+    it: their columns were fitted at that size."""
+    def kept(n: nodes.Node) -> bool:
+        return isinstance(n, (nodes.literal_block, nodes.image, nodes.table))
+    for out in list(document.findall(nodes.container)):
+        if "cell_output" not in out["classes"] or out.next_node(nodes.paragraph) is None:
+            continue
+        if next(iter(out.findall(kept)), None) is None:
+            out.replace_self(out.children)
+
+
 class PrintedBook(SphinxPostTransform):
     """Numbering, root chapter and web-only pages of the assembled LaTeX document."""
 
@@ -181,6 +199,7 @@ class PrintedBook(SphinxPostTransform):
             return
         self._unlink_api()
         self._long_tables()
+        _unwrap_prose_outputs(self.document)
         numbered = numbered_docs(self.app)
         for sof in list(self.document.findall(addnodes.start_of_file)):
             doc = sof.get("docname")
