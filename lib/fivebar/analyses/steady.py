@@ -788,7 +788,6 @@ def _to_tolerance(s: Setup, method: str, tol: float, memo: dict | None = None) -
     S = S_min
     solved: list[SteadyState] = []
     stale: set[int] = set() if memo is None else set(memo["stale"])
-    short = False  # the last speed's matrix fell short at a coarser S (in this call or before)
     prev: SteadyState | None = None
     tried: list[str] = []
     while S <= _TOL_MAX_STEPS:
@@ -814,14 +813,12 @@ def _to_tolerance(s: Setup, method: str, tol: float, memo: dict | None = None) -
                 # the last speed's monodromy matrix of this S as the first Jacobian, unless it fell
                 # short at this S or a coarser one, in this call or before (the modes whose multipliers
                 # turn quickly with the speed are resolved at every S: the finer S take their own too)
-                Phi = None if memo is None or start[0] is None or S in stale or short else memo["monodromy"].get(S)
-                if short:
-                    stale.add(S)
+                short = any(k <= S for k in stale)
+                Phi = None if memo is None or start[0] is None or short else memo["monodromy"].get(S)
                 cur = _shooting(sS, *start, inner, shooting.__wrapped__.__defaults__[3],  # its max_iter
                                 monodromy=Phi)
                 if Phi is not None and "monodromy" in cur._cache:
-                    stale.add(S)  # the last speed's matrix fell short: take this S's own from now on
-                short = short or S in stale
+                    stale.add(S)  # the last speed's matrix fell short: this S and the finer take their own
             else:
                 cur = march(sS, tol=inner)
         except (NewtonConvergenceError, SteadyStateError) as exc:
