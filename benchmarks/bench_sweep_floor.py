@@ -17,8 +17,9 @@ largest Floquet multiplier.  This script measures, in one process, one BLAS thre
                shooting and the multipliers alone (as ``warm_chain`` times its rows)
   warm_chain   the speeds of two stretches of the 200 (40 consecutive speeds each, about 247-361
                and 484-600 r/min) solved one after the other at S = 800, each from the orbit of
-               the speed before (scaled as the quasi-static response scales with the speed, and
-               the secant through the two before) with that orbit's monodromy matrix as the
+               the speed before (the warm start's predictor, ``steady._predict``: scaled as the
+               quasi-static response scales with the speed, and the secant through the two
+               before) with that orbit's monodromy matrix as the
                first Jacobian of the chord iteration (``fivebar.analyses.steady._shooting``'s
                ``monodromy``, what ``steady_state(..., tol=..., start=...)`` does at each S): the
                periods and milliseconds a row, against the rows from the static start at the
@@ -154,6 +155,7 @@ def warm_chain(p):
         for i in stretch:
             rpm = float(SPEEDS[i])
             s = Setup(p, crank_speed_rpm=rpm)
+            S = s.steps_per_period
             # from the static start (the sweep as it is), for the comparison
             t = time.perf_counter()
             cold = steady._shooting(s, None, None, 1e-10, 20)
@@ -163,11 +165,9 @@ def warm_chain(p):
             t = time.perf_counter()
             if prev is None:
                 st = steady._shooting(s, None, None, 1e-10, 20)
-            else:
-                z = steady._scaled(np.concatenate([prev.u[0], prev.v[0]]), 1.0 / prev_rpm)
-                if before is not None:
-                    z = z + (rpm - prev_rpm) / (prev_rpm - before_rpm) * (z - steady._scaled(before, 1.0 / before_rpm))
-                x = steady._scaled(z, rpm)
+            else:  # the library's predictor of a warm start (steady._predict), from the last two orbits
+                memo = {"x": {S: np.concatenate([prev.u[0], prev.v[0]])}, "rpm": prev_rpm, "before": before}
+                x = steady._predict(memo, S, rpm)
                 n = len(x) // 2
                 st = steady._shooting(s, x[:n], x[n:], 1e-10, 20, monodromy=prev_Phi)
             Phi, extra = _own_monodromy(st)
@@ -175,7 +175,7 @@ def warm_chain(p):
             periods.append(st.periods + extra)
             worst = max(worst, _worst(st, cold))
             if prev is not None:
-                before, before_rpm = np.concatenate([prev.u[0], prev.v[0]]), prev_rpm
+                before = {"x": {S: np.concatenate([prev.u[0], prev.v[0]])}, "rpm": prev_rpm}
             prev, prev_rpm, prev_Phi = st, rpm, Phi
         # the first row of a stretch has no predictor: left out of the means
         out[f"{SPEEDS[stretch[0]]:.0f}-{SPEEDS[stretch[-1]]:.0f}rpm"] = {
